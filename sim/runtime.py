@@ -1,0 +1,137 @@
+"""Taichi start-up: backend and floating-point precision, chosen once per process.
+
+Precision is the single switch of DESIGN.md section 3: `init_taichi(precision="f64")` sets
+Taichi's `default_fp`, so every field and kernel declared with `float` / `ti.math.vec3` follows
+it. Nothing in the project names f32 or f64 elsewhere; numpy code asks `numpy_float()`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.errors import BackendError, ConfigError
+
+PRECISIONS = ("f32", "f64")
+ARCHES = ("cpu", "cuda", "auto")
+
+
+@dataclass(frozen=True)
+class RuntimeInfo:
+    arch: str  # "cpu" or "cuda": the backend actually running
+    precision: str  # "f32" or "f64"
+    threads: int  # CPU threads (0 = Taichi's default)
+    device: str  # human-readable device name, for reports
+
+
+_runtime: RuntimeInfo | None = None
+
+
+def cuda_available() -> bool:
+    """True when a CUDA driver and device can be opened (checked without initialising Taichi)."""
+    import ctypes
+
+    try:
+        lib = ctypes.CDLL("libcuda.so.1")
+    except OSError:
+        return False
+    count = ctypes.c_int(0)
+    if lib.cuInit(0) != 0 or lib.cuDeviceGetCount(ctypes.byref(count)) != 0:
+        return False
+    return count.value > 0
+
+
+def _cuda_device_name() -> str:
+    import ctypes
+
+    try:
+        lib = ctypes.CDLL("libcuda.so.1")
+        buf = ctypes.create_string_buffer(256)
+        lib.cuInit(0)
+        dev = ctypes.c_int(0)
+        lib.cuDeviceGet(ctypes.byref(dev), 0)
+        lib.cuDeviceGetName(buf, 256, dev)
+        return buf.value.decode()
+    except OSError:
+        return "CUDA device"
+
+
+def _cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "CPU"
+
+
+def init_taichi(
+    arch: str = "cpu", precision: str = "f32", threads: int = 1, debug: bool = False
+) -> RuntimeInfo:
+    """Start Taichi once. A second call with the same settings is a no-op; other settings raise.
+
+    arch: "cpu", "cuda" or "auto" (CUDA when a device is present, else CPU). Vulkan is never
+    picked for compute: on a machine without a GPU it is a slow software device (TAICHI_NOTES).
+    threads: CPU threads; 1 makes float atomics, hence whole runs, bitwise reproducible.
+    """
+    global _runtime
+    if precision not in PRECISIONS:
+        raise ConfigError("--precision", precision, " or ".join(PRECISIONS))
+    if arch not in ARCHES:
+        raise ConfigError("--arch", arch, ", ".join(ARCHES))
+    if arch == "auto":
+        arch = "cuda" if cuda_available() else "cpu"
+    if arch == "cuda" and not cuda_available():
+        raise BackendError("--arch cuda was requested but no CUDA device is available on this machine")
+    wanted = (arch, precision, threads)
+    if _runtime is not None:
+        if (_runtime.arch, _runtime.precision, _runtime.threads) != wanted:
+            raise BackendError(
+                f"Taichi already runs with arch={_runtime.arch} precision={_runtime.precision} "
+                f"threads={_runtime.threads}; start a new process for {wanted}"
+            )
+        return _runtime
+
+    os.environ.setdefault("TI_LOG_LEVEL", "warn")
+    import taichi as ti
+
+    kwargs: dict = dict(
+        default_fp=ti.f64 if precision == "f64" else ti.f32,
+        default_ip=ti.i32,
+        random_seed=0,
+        debug=debug,
+        log_level=ti.WARN,
+    )
+    if arch == "cuda":
+        ti.init(arch=ti.cuda, enable_fallback=False, **kwargs)
+        device = _cuda_device_name()
+    else:
+        if threads > 0:
+            kwargs["cpu_max_num_threads"] = threads
+        ti.init(arch=ti.cpu, enable_fallback=False, **kwargs)
+        device = _cpu_name()
+    _runtime = RuntimeInfo(arch=arch, precision=precision, threads=threads, device=device)
+    return _runtime
+
+
+def runtime() -> RuntimeInfo:
+    """The running configuration; raises if `init_taichi` has not been called."""
+    if _runtime is None:
+        raise RuntimeError("init_taichi() must be called before building any Taichi data")
+    return _runtime
+
+
+def numpy_float() -> type:
+    """The numpy dtype matching the Taichi precision (float64 before Taichi starts)."""
+    if _runtime is None or _runtime.precision == "f64":
+        return np.float64
+    return np.float32
+
+
+def float_eps() -> float:
+    """Machine epsilon of the running precision, for tolerances that follow the precision."""
+    return float(np.finfo(numpy_float()).eps)

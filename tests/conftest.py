@@ -1,0 +1,52 @@
+"""Test session set-up: Taichi starts once, on the arch named by --arch or ANISOFRAC_ARCH.
+
+Tests run in f64 (they check accuracy) on one CPU thread (float atomics are then deterministic).
+Re-initialising Taichi per test would recompile every kernel, so it happens exactly once here.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--arch",
+        default=os.environ.get("ANISOFRAC_ARCH", "cpu"),
+        choices=["cpu", "cuda", "auto"],
+        help="Taichi backend for the whole session (default: cpu, or $ANISOFRAC_ARCH)",
+    )
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    from sim.runtime import init_taichi
+
+    info = init_taichi(arch=config.getoption("--arch"), precision="f64", threads=1)
+    config._anisofrac_runtime = info  # type: ignore[attr-defined]
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    info = config._anisofrac_runtime  # type: ignore[attr-defined]
+    return f"anisofrac: taichi arch={info.arch} precision={info.precision} device={info.device}"
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    info = config._anisofrac_runtime  # type: ignore[attr-defined]
+    if info.arch != "cuda":
+        skip = pytest.mark.skip(reason="needs a CUDA device: run with --arch cuda on a GPU machine")
+        for item in items:
+            if "gpu" in item.keywords:
+                item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def taichi_runtime(pytestconfig: pytest.Config):
+    return pytestconfig._anisofrac_runtime  # type: ignore[attr-defined]
