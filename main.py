@@ -1,7 +1,11 @@
 """Command line of the fracture sandbox (DESIGN.md section 7): thin: parse, build, hand over.
 
-    python main.py                      run the default scene headless (see `run`)
+    python main.py                      run the default scene headless (out/pot/)
+    python main.py run SCENE [options]  run a scene headless: frames, video, stats.json
+    python main.py view SCENE           interactive window
+    python main.py scenes               list the scenes and their effects
     python main.py check OBJECT|MESH    validate and print particle/tet statistics (Table 1)
+    python main.py bench [--quick]      accuracy-vs-cost report in docs/report/
 """
 
 from __future__ import annotations
@@ -13,6 +17,62 @@ import sys
 from sim.errors import SandboxError
 
 DEFAULT_OBJECT = "pot"
+DEFAULT_SCENE = "pot"
+
+
+def _init(args: argparse.Namespace) -> None:
+    from sim.runtime import init_taichi
+
+    info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
+    print(f"taichi: arch={info.arch} precision={info.precision} device={info.device}", file=sys.stderr)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from scenes.loader import load_scene
+    from sim.run import RunOptions, run
+
+    overrides = list(args.set or [])
+    if args.seed is not None:
+        overrides.append(f"scene.seed={args.seed}")
+    cfg = load_scene(args.scene, overrides)  # validated before anything is built or written
+    _init(args)
+    out = Path(args.out) if args.out else Path("out") / cfg.scene.name
+    opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
+                      height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
+                      progress=not args.no_progress)
+    stats = run(cfg, opts)
+    t1 = stats["table1"]
+    print(f"{cfg.scene.name}: {stats['frames']} frames, {t1['fragments']} fragments, "
+          f"{len(stats['events'])} fracture events, {stats['timings']['average_fps']} frames/s -> {out}")
+    return 0
+
+
+def _cmd_scenes(args: argparse.Namespace) -> int:
+    from scenes.loader import load_scene, scene_names
+
+    for name in scene_names():
+        cfg = load_scene(name)
+        print(f"{name:16s} [{', '.join(cfg.scene.effects)}]")
+        print(f"{'':16s} {cfg.scene.description}")
+    return 0
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from scenes.loader import load_scene
+
+    cfg = load_scene(args.scene, list(args.set or []))
+    _init(args)
+    from render.viewer import run_viewer
+
+    return run_viewer(cfg, args)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from bench.report import main as bench_main
+
+    return bench_main(["--quick"] if args.quick else [])
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -64,6 +124,46 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--group-size", type=int, default=4, help="surface particles per boundary particle")
     c.add_argument("--json", action="store_true", help="print the report as JSON")
     c.set_defaults(func=_cmd_check)
+
+    def runtime_options(q: argparse.ArgumentParser) -> None:
+        q.add_argument("--arch", default="cpu", choices=["cpu", "cuda", "auto"], help="Taichi backend (default cpu)")
+        q.add_argument("--precision", default="f32", choices=["f32", "f64"], help="floating point (default f32)")
+        q.add_argument("--threads", type=int, default=1,
+                       help="CPU threads (default 1: bitwise reproducible; 0 = all cores)")
+        q.add_argument("--set", action="append", metavar="KEY.PATH=VALUE",
+                       help="override a scene value, validated like the file (repeatable)")
+
+    r = sub.add_parser("run", help="run a scene headless and write frames, video and stats.json")
+    r.add_argument("scene", nargs="?", default=DEFAULT_SCENE, help="scene name or .toml file (default: pot)")
+    r.add_argument("--frames", type=int, default=None, help="frames to run (default: the scene's)")
+    r.add_argument("--out", default=None, help="output folder (default: out/<scene>)")
+    r.add_argument("--overwrite", action="store_true", help="replace the files of an existing output folder")
+    r.add_argument("--renderer", default="auto", choices=["ggui", "raster", "auto", "none"])
+    r.add_argument("--video", default="mp4", choices=["mp4", "gif", "none"])
+    r.add_argument("--width", type=int, default=640)
+    r.add_argument("--height", type=int, default=480)
+    r.add_argument("--seed", type=int, default=None, help="override scene.seed")
+    r.add_argument("--meshes", default="none", choices=["none", "obj", "ply"], help="fragment meshes every frame")
+    r.add_argument("--vtu", action="store_true", help="write a VTU series of the particles (ParaView)")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    runtime_options(r)
+    r.set_defaults(func=_cmd_run)
+
+    v = sub.add_parser("view", help="interactive window")
+    v.add_argument("scene", nargs="?", default=DEFAULT_SCENE)
+    v.add_argument("--width", type=int, default=1280)
+    v.add_argument("--height", type=int, default=800)
+    v.add_argument("--frames", type=int, default=0, help="stop after N frames (0 = until closed)")
+    v.add_argument("--script", default=None, help="scripted actions (tests): strike@F,toggle@F:NAME,shot@F:PATH")
+    runtime_options(v)
+    v.set_defaults(func=_cmd_view)
+
+    s = sub.add_parser("scenes", help="list the scenes and their effects")
+    s.set_defaults(func=_cmd_scenes)
+
+    b = sub.add_parser("bench", help="the accuracy-vs-cost study; writes docs/report/")
+    b.add_argument("--quick", action="store_true", help="a reduced study (minutes)")
+    b.set_defaults(func=_cmd_bench)
     return p
 
 
@@ -71,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
-        args = parser.parse_args(["check", DEFAULT_OBJECT])
+        args = parser.parse_args(["run", DEFAULT_SCENE])
     try:
         return args.func(args)
     except SandboxError as exc:
@@ -80,6 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a command that stopped reading (head)
+        return 0
 
 
 if __name__ == "__main__":

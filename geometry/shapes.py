@@ -383,6 +383,47 @@ class Figurine(Shape):
         return trimesh.util.concatenate(parts)
 
 
+@dataclass
+class Tetra(Shape):
+    """A single regular tetrahedron of edge `size` (m) resting on y = 0: the teaching scenes' tet.
+
+    Sampled at its four corners only, so any resolution >= the edge length gives exactly one tet.
+    """
+
+    size: float = 0.1
+    name: str = "tet"
+
+    def __post_init__(self) -> None:
+        _positive("shape.size", self.size)
+        a = self.size
+        base = np.array([[0.0, 0.0, 0.0], [a, 0.0, 0.0], [0.5 * a, 0.0, np.sqrt(3) / 2 * a]])
+        apex = np.array([[0.5 * a, np.sqrt(2.0 / 3.0) * a, np.sqrt(3) / 6 * a]])
+        self.corners = np.vstack([base, apex]) - np.array([0.5 * a, 0.0, np.sqrt(3) / 6 * a])
+        self._planes = []
+        for k in range(4):
+            tri = np.delete(self.corners, k, axis=0)
+            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+            n /= np.linalg.norm(n)
+            if np.dot(n, self.corners[k] - tri[0]) > 0:
+                n = -n
+            self._planes.append((n, float(np.dot(n, tri[0]))))
+
+    def sdf(self, points: np.ndarray) -> np.ndarray:
+        # max over the four face planes: exact inside, a lower bound outside (enough for sampling)
+        return np.max([points @ n - d for n, d in self._planes], axis=0)
+
+    def surface_samples(self, h: float) -> np.ndarray:
+        return self.corners.copy()
+
+    def bounds(self):
+        return self.corners.min(0), self.corners.max(0)
+
+    def reference_mesh(self):
+        import trimesh
+
+        return trimesh.Trimesh(self.corners, [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]).convex_hull
+
+
 def _positive(key: str, value: float) -> None:
     if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
         raise ConfigError(key, value, "a finite length > 0 m")
@@ -398,4 +439,5 @@ SHAPES = {
     "lathe": lathe,
     "taichi": lambda radius, height, **kw: TaiChiDisk(radius, height, **kw),
     "figurine": lambda size=0.2, **kw: Figurine(size, **kw),
+    "tet": lambda size=0.1, **kw: Tetra(size, **kw),
 }

@@ -137,8 +137,10 @@ def tetrahedralize(
     points = np.concatenate([surface, interior])
     # QJ (joggle) keeps qhull fast on the co-planar samples of flat faces; the flat tets it leaves on
     # those faces are peeled below like any surface sliver.
-    tri = Delaunay(points, qhull_options="Qbb Qc Q12 QJ")
-    tets = tri.simplices.astype(np.int64)
+    if len(points) == 4:  # one tet (qhull needs five points to start)
+        tets = np.arange(4, dtype=np.int64)[None]
+    else:
+        tets = Delaunay(points, qhull_options="Qbb Qc Q12 QJ").simplices.astype(np.int64)
     p = points[tets]
     vol = signed_volumes(p)
     flip = vol < 0

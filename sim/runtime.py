@@ -7,7 +7,6 @@ it. Nothing in the project names f32 or f64 elsewhere; numpy code asks `numpy_fl
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,7 +95,6 @@ def init_taichi(
             )
         return _runtime
 
-    os.environ.setdefault("TI_LOG_LEVEL", "warn")
     import taichi as ti
 
     kwargs: dict = dict(

@@ -1,0 +1,319 @@
+"""Typed scene configuration with units and ranges (DESIGN.md section 6).
+
+A scene file is validated into these dataclasses before anything is built. Each field carries a
+`Spec` (type, allowed range or choices, unit); `from_dict` rejects unknown keys, wrong types,
+NaN/inf and out-of-range values with a `ConfigError` that names the key path, the value and the
+allowed range. The full schema is documented in docs/scenes.md.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import MISSING, dataclass, field, fields
+from typing import Any
+
+from sim.errors import ConfigError
+
+EFFECTS = ("rigid", "fracture", "subdivision", "shatter", "elastic", "wpca", "debris")
+# an effect that needs another: the key names the effect, the value what it needs
+EFFECT_NEEDS = {"subdivision": "fracture", "shatter": "fracture", "debris": "shatter", "fracture": "rigid"}
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What a configuration value may be."""
+
+    kind: str  # "float", "int", "bool", "str", "strs", "vec3", "floats", "dict", "table", "tables"
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    unit: str = ""
+    choices: tuple = ()
+    table: type | None = None  # dataclass for "table" / "tables"
+    length: int | None = None  # for "floats"
+
+    def allowed(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(map(str, self.choices))
+        parts = []
+        if self.lo is not None:
+            parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
+        if self.hi is not None:
+            parts.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+        what = {
+            "float": "a finite number",
+            "int": "an integer",
+            "bool": "true or false",
+            "str": "a string",
+            "vec3": "3 finite numbers",
+            "floats": f"a list of {self.length or 'any number of'} finite numbers",
+            "strs": "a list of names",
+            "dict": "a table",
+            "table": "a table",
+            "tables": "an array of tables",
+        }[self.kind]
+        rng = (" " + " and ".join(parts)) if parts else ""
+        unit = f" ({self.unit})" if self.unit else ""
+        return what + rng + unit
+
+
+def spec_field(kind: str, default: Any = MISSING, **kw) -> Any:
+    """A dataclass field with its Spec; no default means the key is required."""
+    s = Spec(kind, **kw)
+    if default is MISSING:
+        return field(metadata={"spec": s})
+    if isinstance(default, (list, dict)) or hasattr(default, "__dataclass_fields__"):
+        return field(default_factory=lambda d=default: copy.deepcopy(d), metadata={"spec": s})
+    return field(default=default, metadata={"spec": s})
+
+
+def _number(value: Any, spec: Spec, path: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(path, value, spec.allowed(), source)
+    v = float(value)
+    if not math.isfinite(v):
+        raise ConfigError(path, value, spec.allowed(), source)
+    if spec.lo is not None and (v < spec.lo or (spec.lo_open and v == spec.lo)):
+        raise ConfigError(path, value, spec.allowed(), source)
+    if spec.hi is not None and (v > spec.hi or (spec.hi_open and v == spec.hi)):
+        raise ConfigError(path, value, spec.allowed(), source)
+    return v
+
+
+def check_value(value: Any, spec: Spec, path: str, source: str = "") -> Any:
+    """Validate one value against its Spec; returns it converted (ints to floats and so on)."""
+    k = spec.kind
+    if k == "float":
+        return _number(value, spec, path, source)
+    if k == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(path, value, spec.allowed(), source)
+        _number(value, spec, path, source)
+        return int(value)
+    if k == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(path, value, spec.allowed(), source)
+        return value
+    if k == "str":
+        if not isinstance(value, str) or (spec.choices and value not in spec.choices):
+            raise ConfigError(path, value, spec.allowed(), source)
+        return value
+    if k == "strs":
+        if not isinstance(value, list):
+            raise ConfigError(path, value, "a list of: " + ", ".join(spec.choices), source)
+        for i, v in enumerate(value):
+            if not isinstance(v, str) or (spec.choices and v not in spec.choices):
+                raise ConfigError(f"{path}[{i}]", v, spec.allowed(), source)
+        return list(value)
+    if k in ("vec3", "floats"):
+        n = 3 if k == "vec3" else spec.length
+        if not isinstance(value, list) or (n is not None and len(value) != n):
+            raise ConfigError(path, value, spec.allowed(), source)
+        return [_number(v, spec, f"{path}[{i}]", source) for i, v in enumerate(value)]
+    if k == "dict":
+        if not isinstance(value, dict):
+            raise ConfigError(path, value, spec.allowed(), source)
+        _reject_non_finite(value, path, source)
+        return value
+    if k == "table":
+        if not isinstance(value, dict):
+            raise ConfigError(path, value, spec.allowed(), source)
+        return from_dict(spec.table, value, path, source)
+    if k == "tables":
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise ConfigError(path, value, spec.allowed(), source)
+        return [from_dict(spec.table, v, f"{path}[{i}]", source) for i, v in enumerate(value)]
+    raise AssertionError(f"unknown spec kind {k}")
+
+
+def _reject_non_finite(value: Any, path: str, source: str) -> None:
+    """Free-form tables (shape and stiffness parameters) still may not hold NaN or inf."""
+    if isinstance(value, dict):
+        for key, v in value.items():
+            _reject_non_finite(v, f"{path}.{key}", source)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _reject_non_finite(v, f"{path}[{i}]", source)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(path, value, "a finite number", source)
+
+
+def from_dict(cls: type, data: dict, path: str, source: str = "") -> Any:
+    """Build dataclass `cls` from a dict, validating every key (see module docstring)."""
+    known = {f.name: f for f in fields(cls) if "spec" in f.metadata}
+    for key in data:
+        if key not in known:
+            raise ConfigError(
+                f"{path}.{key}" if path else key, data[key], "a known key: " + ", ".join(sorted(known)), source
+            )
+    kwargs = {}
+    for name, f in known.items():
+        sub = f"{path}.{name}" if path else name
+        if name in data:
+            kwargs[name] = check_value(data[name], f.metadata["spec"], sub, source)
+        elif f.default is MISSING and f.default_factory is MISSING:
+            raise ConfigError(sub, None, "required: " + f.metadata["spec"].allowed(), source)
+    obj = cls(**kwargs)
+    check = getattr(obj, "check", None)
+    if check is not None:
+        check(path, source)
+    return obj
+
+
+@dataclass
+class KernelConfig:
+    """The SPH kernel of a material (Sect. 4.1, Eq. 4-6)."""
+
+    mode: str = spec_field("str", "isotropic", choices=("isotropic", "fixed", "wpca"))
+    support: float = spec_field("float", 2.0, lo=1.0, hi=6.0, unit="particle spacings")
+    axis_scale: list = spec_field("vec3", [1.0, 1.0, 1.0], lo=0.01, hi=100.0, unit="-")
+    axes: list = spec_field("floats", [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], length=9, lo=-1.0, hi=1.0)
+    max_ratio: float = spec_field("float", 4.0, lo=1.0, hi=20.0, unit="-")
+
+
+@dataclass
+class MaterialConfig:
+    name: str = spec_field("str")
+    density: float = spec_field("float", lo=1.0, hi=30000.0, unit="kg/m^3")
+    stiffness: dict = spec_field("dict")
+    tensile_strength: float = spec_field("float", 1.0e7, lo=0.0, hi=1e11, lo_open=True, unit="Pa")
+    toughness: float = spec_field("float", 10.0, lo=0.0, hi=1e7, lo_open=True, unit="J/m^2")
+    restitution: float = spec_field("float", 0.2, lo=0.0, hi=1.0, unit="-")
+    friction: float = spec_field("float", 0.5, lo=0.0, hi=10.0, unit="-")
+    kernel: KernelConfig = spec_field("table", KernelConfig(), table=KernelConfig)
+    cracks: int = spec_field("int", 3, lo=1, hi=32, unit="cracks per event")
+
+
+@dataclass
+class ObjectConfig:
+    name: str = spec_field("str")
+    material: str = spec_field("str")
+    shape: dict = spec_field("dict", {})
+    mesh: str = spec_field("str", "")
+    units: str = spec_field("str", "")
+    repair: bool = spec_field("bool", False)
+    resolution: float = spec_field("float", 0.01, lo=1e-5, hi=10.0, unit="m")
+    region_materials: dict = spec_field("dict", {})
+    position: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-1e6, hi=1e6, unit="m")
+    rotation: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-360.0, hi=360.0, unit="deg, XYZ Euler")
+    velocity: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-1e3, hi=1e3, unit="m/s")
+    angular_velocity: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-1e3, hi=1e3, unit="rad/s")
+    breakable: bool = spec_field("bool", True)
+    static: bool = spec_field("bool", False)
+    group_size: int = spec_field("int", 4, lo=1, hi=16, unit="particles per boundary particle")
+    fixed_box: list = spec_field("floats", [], lo=-1e6, hi=1e6, unit="m: min x y z, max x y z; elastic: fixed particles")
+    held_border: float = spec_field("float", 0.0, lo=0.0, hi=100.0, unit="m: static breakable objects keep fragments "
+                                    "within this distance of their bounding box's sides fixed (a window frame)")
+    count: int = spec_field("int", 1, lo=1, hi=100, unit="copies")
+    spacing: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-100.0, hi=100.0, unit="m between copies")
+
+    def check(self, path: str, source: str) -> None:
+        if bool(self.shape) == bool(self.mesh):
+            raise ConfigError(f"{path}.shape", self.shape or self.mesh, "exactly one of 'shape' or 'mesh'", source)
+        if self.mesh and not self.units:
+            raise ConfigError(f"{path}.units", None, "the length unit of the mesh file (m, cm, mm, in, ...)", source)
+        if self.fixed_box and len(self.fixed_box) != 6:
+            raise ConfigError(f"{path}.fixed_box", self.fixed_box, "6 numbers: min x y z, max x y z (m)", source)
+
+
+@dataclass
+class ColliderConfig:
+    type: str = spec_field("str", choices=("plane", "box"))
+    point: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-1e6, hi=1e6, unit="m")
+    normal: list = spec_field("vec3", [0.0, 1.0, 0.0], lo=-1.0, hi=1.0, unit="-")
+    center: list = spec_field("vec3", [0.0, 0.0, 0.0], lo=-1e6, hi=1e6, unit="m")
+    size: list = spec_field("vec3", [1.0, 1.0, 1.0], lo=0.0, hi=1e4, lo_open=True, unit="m")
+    restitution: float = spec_field("float", 0.2, lo=0.0, hi=1.0, unit="-")
+    friction: float = spec_field("float", 0.5, lo=0.0, hi=10.0, unit="-")
+    young: float = spec_field("float", 3.0e10, lo=1e3, hi=1e13, unit="Pa (for the Hertz impact)")
+    poisson: float = spec_field("float", 0.2, lo=-0.99, hi=0.499, unit="-")
+
+    def check(self, path: str, source: str) -> None:
+        if self.type == "plane" and math.hypot(*self.normal) < 1e-9:
+            raise ConfigError(f"{path}.normal", self.normal, "a non-zero vector", source)
+
+
+@dataclass
+class ScriptedCrackConfig:
+    """A crack applied at a given frame without an impact analysis (teaching scenes)."""
+
+    frame: int = spec_field("int", lo=0, hi=100000)
+    object: str = spec_field("str")
+    point: list = spec_field("vec3", lo=-1e6, hi=1e6, unit="m, reference frame (the scene at t = 0)")
+    normal: list = spec_field("vec3", lo=-1.0, hi=1.0, unit="-")
+    radius: float = spec_field("float", 1.0, lo=0.0, hi=1e6, lo_open=True, unit="m")
+    side: list = spec_field("floats", [], lo=-1.0, hi=1.0, unit="in-plane direction of a half-disc, [] = disc")
+    r_inner: float = spec_field("float", 0.0, lo=0.0, hi=1e6, unit="m")
+
+
+@dataclass
+class CameraConfig:
+    eye: list = spec_field("vec3", [0.8, 0.6, 0.8], lo=-1e6, hi=1e6, unit="m")
+    target: list = spec_field("vec3", [0.0, 0.1, 0.0], lo=-1e6, hi=1e6, unit="m")
+    fov: float = spec_field("float", 45.0, lo=1.0, hi=170.0, unit="deg")
+
+
+@dataclass
+class SceneSection:
+    name: str = spec_field("str")
+    description: str = spec_field("str", "")
+    effects: list = spec_field("strs", [], choices=EFFECTS)
+    frames: int = spec_field("int", 120, lo=1, hi=100000)
+    fps: float = spec_field("float", 60.0, lo=1.0, hi=1000.0, unit="frames/s")
+    substeps: int = spec_field("int", 4, lo=1, hi=1000)
+    seed: int = spec_field("int", 0, lo=0, hi=2**31 - 1)
+    gravity: list = spec_field("vec3", [0.0, -9.81, 0.0], lo=-1e3, hi=1e3, unit="m/s^2")
+    fracture_mode: str = spec_field("str", "auto", choices=("auto", "basic", "subdivision"))
+    impact_threshold: float = spec_field("float", 0.5, lo=0.0, hi=1e3, unit="m/s relative normal speed")
+    particle_capacity: float = spec_field("float", 4.0, lo=1.0, hi=64.0, unit="x initial particles")
+    expected_fragments: list = spec_field("floats", [1.0, 1e9], length=2, lo=0.0, unit="[min, max] after a run")
+    test_frames: int = spec_field("int", 0, lo=0, hi=100000, unit="frames the test suite runs (0 = frames)")
+    elastic_damping: float = spec_field("float", 0.0, lo=0.0, hi=1e6, unit="1/s (elastic effect)")
+
+
+@dataclass
+class SceneConfig:
+    scene: SceneSection = spec_field("table", table=SceneSection)
+    materials: list = spec_field("tables", [], table=MaterialConfig)
+    objects: list = spec_field("tables", [], table=ObjectConfig)
+    colliders: list = spec_field("tables", [], table=ColliderConfig)
+    camera: CameraConfig = spec_field("table", CameraConfig(), table=CameraConfig)
+    cracks: list = spec_field("tables", [], table=ScriptedCrackConfig)
+    source: str = ""
+
+    def check(self, path: str, source: str) -> None:
+        effects = self.scene.effects
+        for e in effects:
+            need = EFFECT_NEEDS.get(e)
+            if need and need not in effects:
+                raise ConfigError("scene.effects", effects, f"'{e}' needs '{need}' in the list too", source)
+        if not self.objects:
+            raise ConfigError("objects", [], "at least one [[objects]] table", source)
+        names = [m.name for m in self.materials]
+        for i, m in enumerate(names):
+            if names.count(m) > 1:
+                raise ConfigError(f"materials[{i}].name", m, "a unique material name", source)
+        for i, o in enumerate(self.objects):
+            if o.material not in names:
+                raise ConfigError(f"objects[{i}].material", o.material, "a material named in [[materials]]: "
+                                  + ", ".join(names), source)
+            if o.count > 1 and not any(o.spacing):
+                raise ConfigError(f"objects[{i}].spacing", o.spacing, "a non-zero offset between copies", source)
+            for region, mat in o.region_materials.items():
+                if mat not in names:
+                    raise ConfigError(f"objects[{i}].region_materials.{region}", mat, "a material name", source)
+
+        objects = [o.name for o in self.objects]
+        for i, c in enumerate(self.cracks):
+            if c.object not in objects:
+                raise ConfigError(f"cracks[{i}].object", c.object, "an object name: " + ", ".join(objects), source)
+            if not self.has("fracture"):
+                raise ConfigError(f"cracks[{i}]", c.object, "scripted cracks need 'fracture' in scene.effects", source)
+
+    def has(self, effect: str) -> bool:
+        return effect in self.scene.effects
+
+    def material(self, name: str) -> MaterialConfig:
+        return next(m for m in self.materials if m.name == name)

@@ -1,0 +1,44 @@
+"""Files a run leaves behind: every file is written to a temporary name and renamed into place."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from sim.errors import ConfigError
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_json(path: Path, data: dict) -> None:
+    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False) + "\n")
+
+
+def prepare_output_dir(path: Path, overwrite: bool) -> Path:
+    """Create the output folder; refuse a non-empty one without `overwrite`, or an unwritable one."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--out", str(path), "a folder (a file of that name exists)")
+    if path.exists() and any(path.iterdir()) and not overwrite:
+        raise ConfigError("--out", str(path), "a new or empty folder, or pass --overwrite to replace its files")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write_probe"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise ConfigError("--out", str(path), f"a writable folder ({exc.strerror})") from None
+    return path

@@ -1,0 +1,390 @@
+"""The World: builds only the stages a scene names and runs the frame loop of DESIGN.md section 4.
+
+It composes the packages and holds no physics itself:
+- geometry (Sect. 5.1, 5.3): objects -> tets -> physical particles and links -> boundary particles;
+- rigid: bodies on boundary particles, impulse contacts, contact events;
+- sph (Sect. 3, 4): the `elastic` effect, and the crack analysis of Algorithm 1 at impacts;
+- geometry (Sect. 5.2): cutting, adaptive subdivision, shattering, fragments.
+
+Only the effects listed in `scene.effects` are built: a disabled effect imports no module of its
+own, allocates no field and launches no kernel (`World.stages` and `World.allocations` show it).
+All positions of rest data are in the reference frame (the scene at t = 0); a body maps a reference
+point X to the world as `R(q) (X - body_ref_com) + body_x` (rigid/world.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from geometry.build import build_object, make_shape
+from geometry.particles import ParticleSet
+from sim.config import SceneConfig
+from sim.errors import ConfigError, SandboxError
+from sim.timers import StageTimers
+
+
+class SimulationError(SandboxError):
+    """The state became non-finite or unphysical; names the field, the entity and the step."""
+
+
+@dataclass
+class BodyInfo:
+    """Host-side facts about a simulated body (index = rigid body id)."""
+
+    object_index: int  # index into scene.objects
+    breakable: bool
+    static: bool
+    thickness: float  # m: the object's thickness B (Eq. 11)
+    resolution: float  # m: tet size the object was built at
+    history: list = field(default_factory=list)  # cracks already applied (reference frame)
+
+
+def euler_xyz_deg(angles) -> np.ndarray:
+    """Rotation matrix of intrinsic X, then Y, then Z rotations (degrees)."""
+    ax, ay, az = np.radians(np.asarray(angles, dtype=np.float64))
+    cx, sx, cy, sy, cz, sz = math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay), math.cos(az), math.sin(az)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def concat_particles(parts: list[ParticleSet]) -> ParticleSet:
+    """One ParticleSet from several, with link and parent indices shifted."""
+    offsets = np.cumsum([0] + [len(p) for p in parts[:-1]])
+
+    def shift(a: np.ndarray, off: int) -> np.ndarray:
+        return np.where(a >= 0, a + off, a)
+
+    return ParticleSet(
+        rest_verts=np.concatenate([p.rest_verts for p in parts]),
+        volume=np.concatenate([p.volume for p in parts]),
+        mass=np.concatenate([p.mass for p in parts]),
+        centroid=np.concatenate([p.centroid for p in parts]),
+        radius=np.concatenate([p.radius for p in parts]),
+        material=np.concatenate([p.material for p in parts]),
+        body=np.concatenate([p.body for p in parts]),
+        links=np.concatenate([shift(p.links, o) for p, o in zip(parts, offsets)]),
+        kind=np.concatenate([p.kind for p in parts]),
+        parent=np.concatenate([shift(p.parent, o) for p, o in zip(parts, offsets)]),
+        alive=np.concatenate([p.alive for p in parts]),
+        extra_links=np.concatenate([p.extra_links + o for p, o in zip(parts, offsets)]),
+    )
+
+
+def transform_particles(ps: ParticleSet, rot: np.ndarray, offset: np.ndarray) -> ParticleSet:
+    """Rest data moved by x -> rot x + offset (a rigid motion keeps volumes and links)."""
+    verts = ps.rest_verts @ rot.T + offset
+    return ParticleSet(
+        rest_verts=verts, volume=ps.volume.copy(), mass=ps.mass.copy(), centroid=verts.mean(1),
+        radius=ps.radius.copy(), material=ps.material.copy(), body=ps.body.copy(), links=ps.links.copy(),
+        kind=ps.kind.copy(), parent=ps.parent.copy(), alive=ps.alive.copy(), extra_links=ps.extra_links.copy(),
+    )
+
+
+def stage_list(cfg: SceneConfig) -> list[str]:
+    """The stages a scene builds, in frame order (DESIGN.md section 4)."""
+    stages = []
+    if cfg.has("rigid"):
+        stages.append("rigid")
+    if cfg.has("elastic"):
+        stages.append("elastic")
+    if cfg.has("fracture"):
+        stages.append("fracture.analysis")
+        stages.append("fracture.subdivision" if fracture_mode(cfg) == "subdivision" else "fracture.links")
+        if cfg.has("shatter"):
+            stages.append("fracture.shatter")
+        stages.append("fracture.split")
+    return stages
+
+
+def fracture_mode(cfg: SceneConfig) -> str:
+    mode = cfg.scene.fracture_mode
+    if mode == "auto":
+        return "subdivision" if cfg.has("subdivision") else "basic"
+    if mode == "subdivision" and not cfg.has("subdivision"):
+        raise ConfigError("scene.fracture_mode", mode, "'basic' unless 'subdivision' is in scene.effects", cfg.source)
+    return mode
+
+
+class World:
+    """A scene, built: particles, bodies and the stages its effects name."""
+
+    def __init__(self, cfg: SceneConfig, seed: int | None = None) -> None:
+        if cfg.has("elastic") and cfg.has("rigid"):
+            raise ConfigError(
+                "scene.effects", cfg.scene.effects,
+                "'elastic' without 'rigid': deformable and rigid bodies in one scene are not supported yet",
+                cfg.source,
+            )
+        self.cfg = cfg
+        self.seed = cfg.scene.seed if seed is None else seed
+        self.stages = stage_list(cfg)
+        self.mode = fracture_mode(cfg) if cfg.has("fracture") else None
+        self.timers = StageTimers()
+        self.allocations: dict[str, object] = {}  # Taichi-backed stores by name (for tests and release)
+        self.frame = 0
+        self.time = 0.0  # s
+        self.dt_frame = 1.0 / cfg.scene.fps
+        self.events: list[dict] = []  # one record per fracture event (stats.json)
+        self.debris_mass = 0.0  # kg: shattered particles taken out of the simulation (no 'debris')
+        self.surface_version = 0  # increases whenever fragment surfaces change
+        t0 = time.perf_counter()
+        self._build_materials()
+        self._build_objects()
+        if cfg.has("fracture") or cfg.has("elastic"):
+            self._build_kernels()
+        if cfg.has("rigid"):
+            self._build_rigid()
+        if cfg.has("elastic"):
+            self._build_elastic()
+        self.build_seconds = time.perf_counter() - t0
+        self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
+
+    # ------------------------------------------------------------------ building
+    def _build_materials(self) -> None:
+        from sph.materials import material_from_dict
+
+        self.materials = []
+        for i, m in enumerate(self.cfg.materials):
+            d = dict(m.stiffness)
+            d.update(density=m.density, tensile_strength=m.tensile_strength, toughness=m.toughness,
+                     restitution=m.restitution, friction=m.friction, name=m.name)
+            try:
+                self.materials.append(material_from_dict(d, key=f"materials[{i}].stiffness"))
+            except ConfigError as exc:
+                exc.source = self.cfg.source
+                raise
+            if m.kernel.mode == "wpca" and not self.cfg.has("wpca"):
+                raise ConfigError(f"materials[{i}].kernel.mode", "wpca", "'wpca' needs 'wpca' in scene.effects",
+                                  self.cfg.source)
+        self.material_index = {m.name: i for i, m in enumerate(self.cfg.materials)}
+
+    def _object_geometry(self, i: int):
+        o = self.cfg.objects[i]
+        mats = [self.material_index[o.material]]
+        for region, name in sorted(o.region_materials.items()):
+            if not region.isdigit():
+                raise ConfigError(f"objects[{i}].region_materials.{region}", region, "a region number", self.cfg.source)
+            while len(mats) <= int(region):
+                mats.append(mats[0])
+            mats[int(region)] = self.material_index[name]
+        density = np.array([self.cfg.materials[k].density for k in mats])
+        try:
+            if o.mesh:
+                geo = build_object(o.mesh, resolution=o.resolution, density=density, units=o.units,
+                                   repair=o.repair, seed=self.seed, group_size=o.group_size)
+            else:
+                params = dict(o.shape)
+                kind = params.pop("type", None)
+                if kind is None:
+                    raise ConfigError(f"objects[{i}].shape.type", None, "a shape type", self.cfg.source)
+                make_shape(kind, params, key_path=f"objects[{i}].shape")  # validates early with the key path
+                geo = build_object(kind, resolution=o.resolution, density=density, seed=self.seed,
+                                   group_size=o.group_size, shape_params=params)
+        except ConfigError as exc:
+            if not exc.key_path.startswith("objects"):
+                exc.key_path = f"objects[{i}].{exc.key_path}"
+                exc.args = (f"{self.cfg.source}: {exc.key_path} = {exc.value!r} is invalid; allowed: {exc.allowed}",)
+            raise
+        ps = geo.particles
+        ps.material = np.asarray(mats, dtype=np.int32)[geo.mesh.tet_region]
+        return geo, ps
+
+    def _build_objects(self) -> None:
+        parts: list[ParticleSet] = []
+        self.object_bodies: list[list[int]] = []  # per scene object: particle-set slices of each copy
+        self._spawn: list[dict] = []  # per copy: object index, particle range, velocity, ...
+        start = 0
+        for i, o in enumerate(self.cfg.objects):
+            geo, ps = self._object_geometry(i)
+            rot = euler_xyz_deg(o.rotation)
+            for c in range(o.count):
+                offset = np.asarray(o.position) + c * np.asarray(o.spacing)
+                moved = transform_particles(ps, rot, offset)
+                parts.append(moved)
+                self._spawn.append(dict(object=i, start=start, stop=start + len(moved), thickness=geo.thickness))
+                start += len(moved)
+        self.particles = concat_particles(parts)
+        self.particles.body[:] = -1
+        for k, sp in enumerate(self._spawn):
+            self.particles.body[sp["start"]:sp["stop"]] = k
+        self.physical_count = len(self.particles)
+
+    def _build_kernels(self) -> None:
+        """Rest kernel tensor G0 of every particle (Eq. 5; WPCA when the material asks, Sect. 4.1)."""
+        from sph.kernel import kernel_from_axes, kernel_wpca
+
+        ps = self.particles
+        G = np.zeros((len(ps), 3, 3))
+        for sp in self._spawn:
+            o = self.cfg.objects[sp["object"]]
+            sl = slice(sp["start"], sp["stop"])
+            for mid in np.unique(ps.material[sl]):
+                kc = self.cfg.materials[mid].kernel
+                sel = np.flatnonzero(ps.material[sl] == mid) + sp["start"]
+                h = kc.support * o.resolution  # m: support radius
+                if kc.mode == "wpca":
+                    G[sel] = kernel_wpca(ps.centroid[sel], h, k_r=kc.max_ratio, axis_scale=kc.axis_scale)
+                else:
+                    axes = np.asarray(kc.axes, dtype=np.float64).reshape(3, 3).T if kc.mode == "fixed" else np.eye(3)
+                    rot = euler_xyz_deg(o.rotation)
+                    G[sel] = kernel_from_axes(rot @ axes, h * np.asarray(kc.axis_scale))
+        self.kernel_G = G  # (N, 3, 3) 1/m: rest kernel tensors in the reference frame
+
+    def _build_rigid(self) -> None:
+        from rigid.bodies import add_tet_body
+        from rigid.world import RigidConfig, RigidWorld
+
+        sc = self.cfg.scene
+        n_sph_est = max(64, int(len(self.particles) * 0.5))
+        self.rigid = RigidWorld(
+            capacity_bodies=max(16, 4 * len(self._spawn)),
+            capacity_spheres=n_sph_est,
+            capacity_colliders=max(1, len(self.cfg.colliders)),
+            config=RigidConfig(gravity=tuple(sc.gravity)),
+        )
+        self.allocations["rigid"] = self.rigid
+        for col in self.cfg.colliders:
+            if col.type == "plane":
+                self.rigid.add_plane(col.point, col.normal, restitution=col.restitution, friction=col.friction)
+            else:
+                self.rigid.add_box_collider(col.center, 0.5 * np.asarray(col.size), restitution=col.restitution,
+                                            friction=col.friction)
+        self.bodies: dict[int, BodyInfo] = {}
+        ps = self.particles
+        for sp in self._spawn:
+            o = self.cfg.objects[sp["object"]]
+            ids = np.arange(sp["start"], sp["stop"])
+            mat = self.materials[int(ps.material[ids[0]])]
+            bid = add_tet_body(
+                self.rigid, ps, ids, group_size=o.group_size, v=o.velocity, w=o.angular_velocity,
+                static=o.static, restitution=mat.restitution, friction=mat.friction,
+            )
+            self.bodies[bid] = BodyInfo(sp["object"], o.breakable and not o.static, o.static, sp["thickness"],
+                                        o.resolution)
+
+    def _build_elastic(self) -> None:
+        from sph.elastic import ElasticEffect
+
+        ps = self.particles
+        fixed = np.zeros(len(ps), dtype=bool)
+        for sp in self._spawn:
+            box = self.cfg.objects[sp["object"]].fixed_box
+            if box:
+                lo, hi = np.asarray(box[:3]), np.asarray(box[3:])
+                c = ps.centroid[sp["start"]:sp["stop"]]
+                fixed[sp["start"]:sp["stop"]] = np.all((c >= lo) & (c <= hi), axis=1)
+        self.elastic = ElasticEffect(
+            ps.centroid, ps.volume, self.kernel_G, self.materials, material_id=ps.material, fixed=fixed,
+            gravity=tuple(self.cfg.scene.gravity), damping=self.cfg.scene.elastic_damping,
+        )
+        self.allocations["elastic"] = self.elastic
+        self.elastic_fixed = fixed
+        self.elastic_steps_per_frame = max(1, int(math.ceil(self.dt_frame / self.elastic.dt)))
+        self.elastic.dt = self.dt_frame / self.elastic_steps_per_frame
+
+    # ------------------------------------------------------------------ stepping
+    def step_frame(self) -> None:
+        """Advance one frame: substeps of the enabled stages, then fracture events."""
+        sc = self.cfg.scene
+        impacts: dict[int, dict] = {}
+        if "rigid" in self.stages:
+            dt = self.dt_frame / sc.substeps
+            for _ in range(sc.substeps):
+                with self.timers.stage("rigid"):
+                    self.rigid.step(dt)
+                if self.mode is not None:
+                    with self.timers.stage("fracture.events"):
+                        self._collect_impacts(impacts)
+        if "elastic" in self.stages:
+            with self.timers.stage("elastic"):
+                self.elastic.step(self.elastic_steps_per_frame)
+        if impacts:
+            self._fracture(impacts)
+        self._check_finite()
+        self.frame += 1
+        self.time += self.dt_frame
+        return self.timers.end_frame()
+
+    def _collect_impacts(self, impacts: dict[int, dict]) -> None:
+        """Keep, per breakable body, the hardest impact of this frame above the speed threshold."""
+        pairs = self.rigid.contact_events().by_body_pair()
+        threshold = self.cfg.scene.impact_threshold
+        for k in range(len(pairs["impulse"])):
+            speed = -float(pairs["speed"][k])  # closing speed, m/s
+            if speed <= threshold:
+                continue
+            a, b = int(pairs["body_a"][k]), int(pairs["body_b"][k])
+            # the normal points from B to A: into A it is +n, into B it is -n
+            for struck, other, sign in ((a, b, 1.0), (b, a, -1.0)):
+                info = self.bodies.get(struck)
+                if info is None or not info.breakable:
+                    continue
+                best = impacts.get(struck)
+                if best is None or speed > best["speed"]:
+                    impacts[struck] = dict(
+                        other=other, speed=speed, point=pairs["point"][k].copy(),
+                        normal=sign * pairs["normal"][k], impulse=float(pairs["impulse"][k]),
+                    )
+
+    def _fracture(self, impacts: dict[int, dict]) -> None:
+        from sim.fracture_stage import fracture_body
+
+        for body in sorted(impacts):
+            if body not in self.bodies or not self.rigid.body_state().alive[body]:
+                continue
+            record = fracture_body(self, body, impacts[body])
+            if record is not None:
+                self.events.append(record)
+                self.surface_version += 1
+
+    def _check_finite(self) -> None:
+        if "rigid" in self.stages:
+            st = self.rigid.body_state()
+            for name in ("x", "q", "v", "w"):
+                arr = getattr(st, name)
+                bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1) & st.alive)
+                if bad.size:
+                    raise SimulationError(
+                        f"non-finite body_{name} of body {bad[0]} ({bad.size} bodies) at frame {self.frame}"
+                    )
+        if "elastic" in self.stages:
+            x = self.elastic.positions()
+            bad = np.flatnonzero(~np.all(np.isfinite(x), axis=1))
+            if bad.size:
+                raise SimulationError(f"non-finite particle_x of particle {bad[0]} at frame {self.frame}")
+
+    # ------------------------------------------------------------------ reporting
+    def fragment_count(self) -> int:
+        if "rigid" not in self.stages:
+            return len(self._spawn)
+        alive = self.rigid.body_state().alive
+        return int(sum(1 for b, info in self.bodies.items() if alive[b] and not info.static))
+
+    def counts(self) -> dict:
+        """The paper's Table 1 columns."""
+        ps = self.particles
+        return dict(
+            physical_particles=int(self.physical_count),
+            subdivided_particles=int((ps.kind == 1).sum()),
+            alive_particles=int(ps.alive.sum()),
+            boundary_particles=int(self.rigid.n_spheres) if "rigid" in self.stages else 0,
+            fragments=self.fragment_count(),
+        )
+
+    def mass_balance(self) -> dict:
+        ps = self.particles
+        alive = float(ps.mass[ps.alive].sum())
+        return dict(initial_kg=self.initial_mass, alive_kg=alive, debris_removed_kg=self.debris_mass,
+                    error_kg=alive + self.debris_mass - self.initial_mass)
+
+    def release(self) -> None:
+        """Free every Taichi store this world allocated."""
+        for store in self.allocations.values():
+            store.release()
+        self.allocations.clear()
