@@ -1,0 +1,398 @@
+"""What one frame shows, independent of the renderer (DESIGN.md section 4, "render" stage).
+
+A `RenderScene` holds Taichi buffers that both renderers (GGUI and the rasteriser) read:
+
+  * triangle surfaces as *corners* (three per triangle, not shared): each corner has a position in
+    the reference frame of its body, a body id and a colour. Unshared corners give flat shading
+    with one normal per face (fragment surfaces are faceted, and a crack rim must not average the
+    normals of the outer wall and the crack face) and per-face colours for free;
+  * body poses (position of the centre of mass, unit quaternion w-x-y-z, reference centre of mass):
+    a kernel maps every corner with `x = R(q) (X - ref_com) + x_body` (rigid/store.py convention,
+    docs/decisions.md "Reference frame for rest data") and writes world corners and face normals.
+    Body id -1 marks static geometry (floor, colliders) given directly in world coordinates;
+  * optional particles (world position, radius, colour) and line segments (links, crack disc
+    outlines; a colour per segment and one width in pixels);
+  * lighting: one directional light, an ambient term and the background colour (`Lighting`).
+
+Buffers are allocated with spare capacity in one `ti.FieldsBuilder` tree per kind (surfaces, poses,
+particles, lines). Setting new surfaces (after a fracture) uploads them and bumps `surface_version`;
+a tree is rebuilt only when its capacity is exceeded (capacity doubles; `generation` counts rebuilds
+so renderers can drop caches). Nothing is allocated per frame: `update()` only runs the transform.
+"""
+
+
+import colorsys
+from dataclasses import dataclass, field
+
+import numpy as np
+import taichi as ti
+
+from sim.errors import ConfigError
+from sim.runtime import numpy_float
+
+MIN_CAPACITY = 64  # slots: smallest tree allocated for any kind
+
+
+@dataclass
+class Lighting:
+    """One directional light plus ambient; colours are linear RGB in [0, 1]."""
+
+    light_dir: np.ndarray = field(default_factory=lambda: np.array([0.35, 1.0, 0.55]))  # towards the light
+    light_color: np.ndarray = field(default_factory=lambda: np.array([0.72, 0.72, 0.72]))
+    ambient: np.ndarray = field(default_factory=lambda: np.array([0.28, 0.28, 0.28]))
+    background: np.ndarray = field(default_factory=lambda: np.array([0.13, 0.14, 0.17]))
+    two_sided: bool = False  # False: max(n.l, 0) with outward normals; True: |n.l| (GGUI's two_sided)
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.light_dir, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
+            raise ConfigError("render.light_dir", d.tolist(), "a finite non-zero 3-vector")
+        self.light_dir = d / np.linalg.norm(d)
+        for name in ("light_color", "ambient", "background"):
+            c = np.asarray(getattr(self, name), dtype=np.float64).reshape(3)
+            if not np.all((c >= 0.0) & (c <= 1.0)):
+                raise ConfigError(f"render.{name}", c.tolist(), "RGB components in [0, 1]")
+            setattr(self, name, c)
+
+
+def body_palette(n: int, saturation: float = 0.45, value: float = 0.92) -> np.ndarray:
+    """(n, 3) distinct soft colours (golden-ratio hues), one per body or fragment, deterministic."""
+    hues = (0.08 + 0.6180339887498949 * np.arange(n)) % 1.0
+    return np.array([colorsys.hsv_to_rgb(h, saturation, value) for h in hues]).reshape(n, 3)
+
+
+@dataclass
+class MeshPart:
+    """One triangle mesh on the host: vertices in its body's reference frame (or in the world for
+    body -1), outward faces, body id (one int or one per vertex), colours: None (palette colour of
+    the body), one RGB, (V, 3) per vertex or (F, 3) per face; when V == F, `color_per` says which
+    ("vertex" or "face"; "auto" takes per-face)."""
+
+    verts: np.ndarray  # (V, 3) m
+    faces: np.ndarray  # (F, 3) int
+    body: int | np.ndarray = -1
+    colors: np.ndarray | None = None
+    color_per: str = "auto"
+
+
+def _pow2_capacity(n: int) -> int:
+    c = MIN_CAPACITY
+    while c < n:
+        c *= 2
+    return c
+
+
+def _colors_for(part: MeshPart, where: str) -> np.ndarray:
+    """(F, 3, 3) corner colours of a part."""
+    nf, nv = len(part.faces), len(part.verts)
+    c = part.colors
+    if c is None:
+        body = np.broadcast_to(np.asarray(part.body, dtype=np.int64), (nv,))
+        pal = body_palette(int(max(body.max(initial=0), 0)) + 1)
+        vc = np.where(body[:, None] >= 0, pal[np.maximum(body, 0)], 0.75)
+        return vc[part.faces]
+    c = np.asarray(c, dtype=np.float64)
+    if c.shape == (3,):
+        out = np.broadcast_to(c, (nf, 3, 3))
+    elif c.shape == (nv, 3) and (nv != nf or part.color_per == "vertex"):
+        out = c[part.faces]
+    elif c.shape == (nf, 3) and part.color_per != "vertex":
+        out = np.broadcast_to(c[:, None, :], (nf, 3, 3))
+    else:
+        raise ConfigError(f"{where}.colors", f"shape {c.shape}", f"(3,), ({nv}, 3) per vertex or ({nf}, 3) per face")
+    if not np.all((out >= 0.0) & (out <= 1.0)):
+        raise ConfigError(f"{where}.colors", "values outside [0, 1]", "linear RGB in [0, 1]")
+    return out
+
+
+@ti.func
+def quat_to_mat3(q):
+    """Rotation matrix of a w-x-y-z quaternion (normalised here, so a drifting q stays a rotation)."""
+    q = q / q.norm()
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    return ti.Matrix(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+@ti.func
+def _corner_world(c, n_body, corner_ref: ti.template(), corner_body: ti.template(), pose_x: ti.template(),
+                  pose_q: ti.template(), pose_ref_com: ti.template()):
+    b = corner_body[c]
+    x = corner_ref[c]
+    if b >= 0 and b < n_body:
+        x = quat_to_mat3(pose_q[b]) @ (x - pose_ref_com[b]) + pose_x[b]
+    return x
+
+
+@ti.kernel
+def _k_transform(n_tri: ti.i32, n_body: ti.i32, corner_ref: ti.template(), corner_body: ti.template(),
+                 pose_x: ti.template(), pose_q: ti.template(), pose_ref_com: ti.template(),
+                 corner_x: ti.template(), corner_n: ti.template()):
+    for t in range(n_tri):
+        x0 = _corner_world(3 * t, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
+        x1 = _corner_world(3 * t + 1, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
+        x2 = _corner_world(3 * t + 2, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
+        n = (x1 - x0).cross(x2 - x0)  # outward for counter-clockwise faces
+        ln = n.norm()
+        if ln > 0:
+            n = n / ln
+        corner_x[3 * t] = x0
+        corner_x[3 * t + 1] = x1
+        corner_x[3 * t + 2] = x2
+        for k in ti.static(range(3)):
+            corner_n[3 * t + k] = n
+
+
+@ti.kernel
+def _k_copy_poses(n: ti.i32, src_x: ti.template(), src_q: ti.template(), src_com: ti.template(),
+                  pose_x: ti.template(), pose_q: ti.template(), pose_ref_com: ti.template()):
+    for b in range(n):
+        pose_x[b] = src_x[b]
+        pose_q[b] = src_q[b]
+        pose_ref_com[b] = src_com[b]
+
+
+@ti.kernel
+def _k_copy_particles(n: ti.i32, src_x: ti.template(), src_r: ti.template(), particle_x: ti.template(),
+                      particle_r: ti.template(), particle_color: ti.template(), color: ti.math.vec3):
+    for i in range(n):
+        particle_x[i] = src_x[i]
+        particle_r[i] = src_r[i]
+        particle_color[i] = color
+
+
+class RenderScene:
+    """Renderer-independent frame buffers (module docstring). Counts: n_tris, n_bodies, n_particles,
+    n_lines; `surface_version` changes when surfaces are replaced, `generation` when a tree is rebuilt."""
+
+    def __init__(self, tri_capacity: int = 0, body_capacity: int = 0, particle_capacity: int = 0,
+                 line_capacity: int = 0, lighting: Lighting | None = None) -> None:
+        self.lighting = lighting or Lighting()
+        self.line_width = 2.0  # px: width of line segments, as GGUI's `lines(width=...)`
+        self.n_tris = 0
+        self.n_bodies = 0
+        self.n_particles = 0
+        self.n_lines = 0
+        self.surface_version = 0
+        self.generation = 0
+        self._trees: dict[str, ti.SNodeTree | None] = dict(surf=None, pose=None, part=None, line=None)
+        self.cap = dict(surf=0, pose=0, part=0, line=0)
+        self._alloc("surf", tri_capacity)
+        self._alloc("pose", body_capacity)
+        self._alloc("part", particle_capacity)
+        self._alloc("line", line_capacity)
+
+    # ---- allocation ------------------------------------------------------------------------------
+    def _alloc(self, kind: str, needed: int) -> None:
+        """(Re)build the tree of one kind with capacity >= needed (never shrinks)."""
+        cap = _pow2_capacity(max(needed, self.cap[kind]))
+        if self._trees[kind] is not None and cap == self.cap[kind]:
+            return
+        old = self._trees[kind]
+        vec3, vec4 = ti.math.vec3, ti.math.vec4
+        fb = ti.FieldsBuilder()
+        if kind == "surf":
+            nc = 3 * cap
+            self.corner_ref = vec3.field()  # (3T,) m: corner position in its body's reference frame
+            self.corner_body = ti.field(ti.i32)  # (3T,) -: body id of the corner, -1 = static world geometry
+            self.corner_color = vec3.field()  # (3T,) -: linear RGB in [0, 1]
+            self.corner_x = vec3.field()  # (3T,) m: world position (changing, written by update())
+            self.corner_n = vec3.field()  # (3T,) -: unit world normal of the corner's face (changing)
+            for f in (self.corner_ref, self.corner_body, self.corner_color, self.corner_x, self.corner_n):
+                fb.dense(ti.i, nc).place(f)
+        elif kind == "pose":
+            self.pose_x = vec3.field()  # (B,) m: world position of the body's centre of mass
+            self.pose_q = vec4.field()  # (B,) -: unit quaternion w-x-y-z, body frame -> world
+            self.pose_ref_com = vec3.field()  # (B,) m: centre of mass in reference coordinates
+            for f in (self.pose_x, self.pose_q, self.pose_ref_com):
+                fb.dense(ti.i, cap).place(f)
+        elif kind == "part":
+            self.particle_x = vec3.field()  # (P,) m: world position
+            self.particle_r = ti.field(float)  # (P,) m: radius
+            self.particle_color = vec3.field()  # (P,) -: linear RGB in [0, 1]
+            for f in (self.particle_x, self.particle_r, self.particle_color):
+                fb.dense(ti.i, cap).place(f)
+        else:
+            self.line_x = vec3.field()  # (2L,) m: segment end points, segment j = (2j, 2j + 1)
+            self.line_color = vec3.field()  # (2L,) -: linear RGB per end point (both ends equal)
+            for f in (self.line_x, self.line_color):
+                fb.dense(ti.i, 2 * cap).place(f)
+        self._trees[kind] = fb.finalize()
+        self.cap[kind] = cap
+        if old is not None:
+            old.destroy()
+            self.generation += 1
+        if kind == "pose":
+            q = np.zeros((cap, 4), dtype=numpy_float())
+            q[:, 0] = 1.0
+            self.pose_q.from_numpy(q)
+
+    def release(self) -> None:
+        """Destroy every tree (the renderers must not draw this scene afterwards)."""
+        for kind, tree in self._trees.items():
+            if tree is not None:
+                tree.destroy()
+            self._trees[kind] = None
+        self.n_tris = self.n_bodies = self.n_particles = self.n_lines = 0
+
+    # ---- surfaces --------------------------------------------------------------------------------
+    def set_surfaces(self, parts: list[MeshPart]) -> None:
+        """Replace all surfaces (after a scene build or a fracture event); bumps surface_version."""
+        refs, bodies, colors = [], [], []
+        for k, part in enumerate(parts):
+            where = f"render.surfaces[{k}]"
+            v = np.asarray(part.verts, dtype=np.float64).reshape(-1, 3)
+            f = np.asarray(part.faces, dtype=np.int64).reshape(-1, 3)
+            if len(f) and (f.min() < 0 or f.max() >= len(v)):
+                raise ConfigError(f"{where}.faces", f"index range {f.min()}..{f.max()}", f"0..{len(v) - 1}")
+            if not np.all(np.isfinite(v)):
+                raise ConfigError(f"{where}.verts", "non-finite coordinates", "finite coordinates (m)")
+            body = np.broadcast_to(np.asarray(part.body, dtype=np.int64), (len(v),))
+            refs.append(v[f])
+            bodies.append(body[f])
+            colors.append(_colors_for(MeshPart(v, f, body, part.colors, part.color_per), where))
+        ref = np.concatenate(refs).reshape(-1, 3) if refs else np.zeros((0, 3))
+        body = np.concatenate(bodies).reshape(-1) if bodies else np.zeros(0, np.int64)
+        col = np.concatenate(colors).reshape(-1, 3) if colors else np.zeros((0, 3))
+        n_tri = len(ref) // 3
+        self._alloc("surf", n_tri)
+        nc = 3 * self.cap["surf"]
+        fdt = numpy_float()
+
+        def pad(a, dt, fill=0):
+            out = np.full((nc,) + a.shape[1:], fill, dtype=dt)
+            out[: len(a)] = a
+            return out
+
+        self.corner_ref.from_numpy(pad(ref, fdt))
+        self.corner_body.from_numpy(pad(body, np.int32, -1))
+        self.corner_color.from_numpy(pad(col, fdt))
+        self.n_tris = n_tri
+        self.surface_version += 1
+        self.update()
+
+    def set_surface_mesh(self, mesh, label_body=None, colors=None) -> None:
+        """Surfaces from a `geometry.surface.SurfaceMesh` (reference frame, `vert_label` = fragment).
+        label_body[label] gives the body of each fragment (default: body = label)."""
+        lab = np.asarray(mesh.vert_label, dtype=np.int64)
+        body = lab if label_body is None else np.asarray(label_body, dtype=np.int64)[lab]
+        self.set_surfaces([MeshPart(mesh.verts, mesh.faces, body, colors)])
+
+    # ---- poses -----------------------------------------------------------------------------------
+    def set_poses(self, x, q, ref_com) -> None:
+        """Body poses from host arrays: x (B, 3) m, q (B, 4) w-x-y-z, ref_com (B, 3) m."""
+        x = np.asarray(x, dtype=np.float64).reshape(-1, 3)
+        q = np.asarray(q, dtype=np.float64).reshape(-1, 4)
+        com = np.asarray(ref_com, dtype=np.float64).reshape(-1, 3)
+        if not (len(x) == len(q) == len(com)):
+            raise ConfigError("render.poses", (len(x), len(q), len(com)), "equal numbers of x, q and ref_com rows")
+        if not np.all(np.isfinite(q)) or np.any(np.linalg.norm(q, axis=1) == 0.0):
+            raise ConfigError("render.poses.q", "zero or non-finite quaternion", "unit quaternions w-x-y-z")
+        nb = len(x)
+        self._alloc("pose", nb)
+        cap = self.cap["pose"]
+        fdt = numpy_float()
+        qq = np.zeros((cap, 4), fdt)
+        qq[:, 0] = 1.0
+        qq[:nb] = q
+        xx = np.zeros((cap, 3), fdt)
+        xx[:nb] = x
+        cc = np.zeros((cap, 3), fdt)
+        cc[:nb] = com
+        self.pose_x.from_numpy(xx)
+        self.pose_q.from_numpy(qq)
+        self.pose_ref_com.from_numpy(cc)
+        self.n_bodies = nb
+
+    def copy_poses_from(self, body_x, body_q, body_ref_com, n: int) -> None:
+        """Body poses from Taichi fields (e.g. a rigid store's body_x, body_q, body_ref_com), no host trip."""
+        self._alloc("pose", n)
+        _k_copy_poses(int(n), body_x, body_q, body_ref_com, self.pose_x, self.pose_q, self.pose_ref_com)
+        self.n_bodies = int(n)
+
+    def update(self) -> None:
+        """World corners and face normals from the current poses (one kernel; call once per frame)."""
+        if self.n_tris:
+            _k_transform(self.n_tris, self.n_bodies, self.corner_ref, self.corner_body, self.pose_x,
+                         self.pose_q, self.pose_ref_com, self.corner_x, self.corner_n)
+
+    # ---- particles and lines -----------------------------------------------------------------------
+    def set_particles(self, x, radius, colors=(0.9, 0.55, 0.2)) -> None:
+        """World-space spheres: x (P, 3) m, radius scalar or (P,) m, colours one RGB or (P, 3)."""
+        x = np.asarray(x, dtype=np.float64).reshape(-1, 3)
+        n = len(x)
+        r = np.broadcast_to(np.asarray(radius, dtype=np.float64), (n,))
+        c = np.broadcast_to(np.asarray(colors, dtype=np.float64), (n, 3))
+        if n and (not np.all(np.isfinite(x)) or not np.all(r > 0.0)):
+            raise ConfigError("render.particles", "non-finite position or radius <= 0", "finite x, radius > 0 m")
+        self._alloc("part", n)
+        cap, fdt = self.cap["part"], numpy_float()
+        for fld, a, shape in ((self.particle_x, x, (cap, 3)), (self.particle_r, r, (cap,)),
+                              (self.particle_color, c, (cap, 3))):
+            buf = np.zeros(shape, fdt)
+            buf[:n] = a
+            fld.from_numpy(buf)
+        self.n_particles = n
+
+    def copy_particles_from(self, x_field, r_field, n: int, color=(0.9, 0.55, 0.2)) -> None:
+        """World-space spheres from Taichi fields (positions vec3, radii scalar), one colour."""
+        self._alloc("part", n)
+        _k_copy_particles(int(n), x_field, r_field, self.particle_x, self.particle_r, self.particle_color,
+                          ti.math.vec3(*color))
+        self.n_particles = int(n)
+
+    def set_lines(self, a, b, colors=(1.0, 0.85, 0.2), width: float | None = None) -> None:
+        """Segments from a (L, 3) to b (L, 3) m, flat colour per segment (one RGB or (L, 3)), width in px."""
+        a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
+        b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
+        if a.shape != b.shape:
+            raise ConfigError("render.lines", (a.shape, b.shape), "equal shapes (L, 3) for both end points")
+        n = len(a)
+        c = np.broadcast_to(np.asarray(colors, dtype=np.float64), (n, 3))
+        if width is not None:
+            if not 0.5 <= width <= 32.0:
+                raise ConfigError("render.line_width", width, "0.5 .. 32 px")
+            self.line_width = float(width)
+        self._alloc("line", n)
+        cap, fdt = self.cap["line"], numpy_float()
+        xs = np.zeros((2 * cap, 3), fdt)
+        xs[0 : 2 * n : 2], xs[1 : 2 * n : 2] = a, b
+        cs = np.zeros((2 * cap, 3), fdt)
+        cs[0 : 2 * n : 2], cs[1 : 2 * n : 2] = c, c
+        self.line_x.from_numpy(xs)
+        self.line_color.from_numpy(cs)
+        self.n_lines = n
+
+    # ---- queries ---------------------------------------------------------------------------------
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World axis-aligned bounds (lo, hi) of everything drawn (host copy: not for every frame)."""
+        pts = []
+        if self.n_tris:
+            pts.append(self.corner_x.to_numpy()[: 3 * self.n_tris])
+        if self.n_particles:
+            x = self.particle_x.to_numpy()[: self.n_particles]
+            r = self.particle_r.to_numpy()[: self.n_particles, None]
+            pts += [x - r, x + r]
+        if self.n_lines:
+            pts.append(self.line_x.to_numpy()[: 2 * self.n_lines])
+        if not pts:
+            return np.zeros(3), np.zeros(3)
+        p = np.concatenate(pts)
+        return p.min(0), p.max(0)
+
+
+def disc_outline(center, normal, radius: float, segments: int = 48) -> tuple[np.ndarray, np.ndarray]:
+    """Segments (a, b), each (segments, 3), of the circle of a crack disc (centre, unit normal, radius m)."""
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    t = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t /= np.linalg.norm(t)
+    s = np.cross(n, t)
+    ang = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    ring = np.asarray(center, dtype=np.float64) + radius * (np.cos(ang)[:, None] * t + np.sin(ang)[:, None] * s)
+    return ring[:-1], ring[1:]

@@ -1,0 +1,228 @@
+"""Frame and video writers for headless runs (DESIGN.md section 7: frames, a video).
+
+Every file is written to a temporary name in its folder and renamed when complete, so an interrupted
+run leaves each finished frame readable and never a half-written PNG, MP4 or GIF:
+  * `PngSequenceWriter`: `frame_00000.png`, `frame_00001.png`, ... each renamed as soon as written;
+  * `Mp4Writer`: H.264 (libx264, yuv420p) through imageio-ffmpeg, streamed to `.<name>.<tag>.tmp.mp4`
+    and renamed on `close()`. yuv420p needs even sizes: an odd width or height is padded by one
+    pixel (the last column/row repeated);
+  * `GifWriter`: frames are quantised to a 256-colour palette as they arrive (about a third of the
+    RGB size in memory) and written with Pillow on `close()`, looping forever.
+`make_writer(fmt, ...)` picks one by name; an unknown name is a ConfigError.
+Frames are (H, W, 3) uint8 arrays, row 0 at the top (what the renderers return).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from sim.errors import ConfigError
+
+VIDEO_FORMATS = ("mp4", "gif", "none")
+FRAME_PATTERN = "frame_{:05d}.png"
+
+
+def _check_frame(img: np.ndarray, size: tuple[int, int] | None, where: str) -> np.ndarray:
+    img = np.asarray(img)
+    if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+        raise ConfigError(where, f"array {img.shape} {img.dtype}", "an (H, W, 3) uint8 image")
+    if size is not None and img.shape[:2] != size:
+        raise ConfigError(where, f"frame size {img.shape[1]}x{img.shape[0]}",
+                          f"the size of the first frame, {size[1]}x{size[0]}")
+    return img
+
+
+def _tmp_name(path: Path, suffix: str) -> Path:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{suffix}", dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+class PngSequenceWriter:
+    """`folder/frame_00000.png`, ...: each frame written to a temporary name, then renamed."""
+
+    def __init__(self, folder: str | Path, start: int = 0, pattern: str = FRAME_PATTERN) -> None:
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.pattern = pattern
+        self.index = int(start)
+        self.count = 0
+        self.paths: list[Path] = []
+        self._size: tuple[int, int] | None = None
+
+    @property
+    def path(self) -> Path:
+        return self.folder
+
+    def write(self, img: np.ndarray) -> Path:
+        from PIL import Image
+
+        img = _check_frame(img, self._size, "png frame")
+        self._size = img.shape[:2]
+        final = self.folder / self.pattern.format(self.index)
+        tmp = _tmp_name(final, ".png")
+        try:
+            Image.fromarray(img, "RGB").save(tmp, format="PNG", compress_level=1)
+            os.replace(tmp, final)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+        self.index += 1
+        self.count += 1
+        self.paths.append(final)
+        return final
+
+    def close(self) -> Path:
+        return self.folder
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+class _RenamedOnClose:
+    """Common part of the video writers: a temporary file renamed to `path` on a clean close()."""
+
+    suffix = ""
+
+    def __init__(self, path: str | Path, fps: float) -> None:
+        self.path = Path(path)
+        if self.path.suffix.lower() != self.suffix:
+            raise ConfigError("video path", str(self.path), f"a file name ending in '{self.suffix}'")
+        if not 0.1 <= fps <= 240.0:
+            raise ConfigError("video.fps", fps, "0.1 .. 240 frames per second")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.fps = float(fps)
+        self.count = 0
+        self._size: tuple[int, int] | None = None
+        self._tmp = _tmp_name(self.path, self.suffix)
+        self._closed = False
+
+    def _finish(self) -> None:
+        raise NotImplementedError
+
+    def close(self) -> Path:
+        """Finish the file and rename it into place; with no frame written, nothing is left behind."""
+        if self._closed:
+            return self.path
+        self._closed = True
+        try:
+            if self.count == 0:
+                self._abort()
+                return self.path
+            self._finish()
+            os.replace(self._tmp, self.path)
+        except BaseException:
+            self._tmp.unlink(missing_ok=True)
+            raise
+        return self.path
+
+    def _abort(self) -> None:
+        self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:  # an interrupted run leaves no half-written video
+            self._closed = True
+            self._abort()
+        return False
+
+
+class Mp4Writer(_RenamedOnClose):
+    """H.264 MP4 (libx264, yuv420p) through imageio-ffmpeg; odd sizes are padded to even."""
+
+    suffix = ".mp4"
+
+    def __init__(self, path: str | Path, fps: float = 30.0, quality: float = 7.0) -> None:
+        super().__init__(path, fps)
+        self.quality = float(quality)
+        self._gen = None
+
+    def write(self, img: np.ndarray) -> None:
+        import imageio_ffmpeg
+
+        img = _check_frame(img, self._size, "mp4 frame")
+        if self._gen is None:
+            self._size = img.shape[:2]
+            h, w = self._size
+            self.frame_size = (w + (w & 1), h + (h & 1))  # (W, H) written: even for yuv420p
+            self._gen = imageio_ffmpeg.write_frames(
+                str(self._tmp), self.frame_size, fps=self.fps, codec="libx264", pix_fmt_in="rgb24",
+                pix_fmt_out="yuv420p", quality=self.quality, macro_block_size=1, ffmpeg_log_level="error",
+                output_params=["-f", "mp4"],
+            )
+            self._gen.send(None)
+        w, h = self.frame_size
+        if img.shape[:2] != (h, w):
+            img = np.pad(img, ((0, h - img.shape[0]), (0, w - img.shape[1]), (0, 0)), mode="edge")
+        self._gen.send(np.ascontiguousarray(img))
+        self.count += 1
+
+    def _finish(self) -> None:
+        self._gen.close()
+        self._gen = None
+
+    def _abort(self) -> None:
+        if self._gen is not None:
+            try:
+                self._gen.close()
+            except Exception:  # noqa: BLE001 - ffmpeg may already be gone; the file is removed anyway
+                pass
+            self._gen = None
+        super()._abort()
+
+
+class GifWriter(_RenamedOnClose):
+    """Animated GIF (Pillow), 256-colour palette per frame, looping; written on close()."""
+
+    suffix = ".gif"
+
+    def __init__(self, path: str | Path, fps: float = 30.0) -> None:
+        super().__init__(path, fps)
+        self._frames: list = []
+
+    def write(self, img: np.ndarray) -> None:
+        from PIL import Image
+
+        img = _check_frame(img, self._size, "gif frame")
+        self._size = img.shape[:2]
+        self._frames.append(Image.fromarray(img, "RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT))
+        self.count += 1
+
+    def _finish(self) -> None:
+        first, rest = self._frames[0], self._frames[1:]
+        duration_ms = max(int(round(1000.0 / self.fps)), 20)  # GIF delays are centiseconds; 20 ms minimum
+        first.save(self._tmp, format="GIF", save_all=True, append_images=rest, duration=duration_ms, loop=0,
+                   optimize=False, disposal=1)
+        self._frames = []
+
+    def _abort(self) -> None:
+        self._frames = []
+        super()._abort()
+
+
+def make_writer(fmt: str, out_dir: str | Path, fps: float = 30.0, stem: str = "video"):
+    """A video writer by name: 'mp4' -> out_dir/stem.mp4, 'gif' -> out_dir/stem.gif, 'png' -> a frame
+    sequence in out_dir/frames/, 'none' -> None."""
+    key = str(fmt).lower()
+    out_dir = Path(out_dir)
+    if key == "mp4":
+        return Mp4Writer(out_dir / f"{stem}.mp4", fps)
+    if key == "gif":
+        return GifWriter(out_dir / f"{stem}.gif", fps)
+    if key == "png":
+        return PngSequenceWriter(out_dir / "frames")
+    if key == "none":
+        return None
+    raise ConfigError("--video", fmt, "mp4, gif, png or none")
