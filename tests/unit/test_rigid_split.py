@@ -1,0 +1,134 @@
+"""Splitting a body into fragments (rigid.bodies.split_body): exact mass, momentum and angular
+momentum to round-off, unchanged world positions of every tet, rebuilt boundary spheres."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from geometry.particles import build_particles
+from rigid.bodies import add_tet_body, box_tetmesh, split_body
+from rigid.quat import quat_from_axis_angle, quat_to_matrix
+from rigid.world import RigidConfig, RigidWorld
+
+DT = 1.0 / 240.0
+
+
+@pytest.fixture(scope="module")
+def world(taichi_runtime):
+    w = RigidWorld(capacity_bodies=8, capacity_spheres=256, capacity_colliders=2)
+    yield w
+    w.release()
+
+
+def _momenta(w, ids):
+    st = w.body_state()
+    p = np.zeros(3)
+    lang = np.zeros(3)
+    for b in ids:
+        m = w.body_mass(b)
+        rot = quat_to_matrix(st.q[b])
+        p += m * st.v[b]
+        lang += np.cross(st.x[b], m * st.v[b]) + rot @ w.body_inertia(b) @ rot.T @ st.w[b]
+    return p, lang
+
+
+def _world_vertices(w, b, verts):
+    st = w.body_state()
+    return (verts - w.body_ref_com(b)) @ quat_to_matrix(st.q[b]).T + st.x[b]
+
+
+def test_split_conserves_mass_momentum_and_pose(world):
+    w = world
+    w.clear()
+    w.config = RigidConfig(gravity=(0.0, 0.0, 0.0), sleep_enabled=False)
+    ps = build_particles(box_tetmesh([0.2, 0.1, 0.08], (4, 2, 2)), 2500.0)
+    parent = add_tet_body(
+        w,
+        ps,
+        group_size=4,
+        offset=(1.0, 2.0, -0.5),
+        q=quat_from_axis_angle([1, 2, 0.5], 0.7),
+        v=(0.3, -1.0, 2.0),
+        w=(4.0, -2.0, 1.5),
+    )
+    for _ in range(5):  # a non-trivial pose
+        w.step(DT)
+    m_parent = w.body_mass(parent)
+    p0, l0 = _momenta(w, [parent])
+    before = _world_vertices(w, parent, ps.rest_verts.reshape(-1, 3)).reshape(-1, 4, 3)
+    # three fragments: the -x half, a single tet (a one-particle fragment), the rest
+    ids = np.arange(len(ps))
+    labels = np.where(ps.centroid[:, 0] < 0.0, 7, 3)
+    labels[5] = 11
+    kids = split_body(w, parent, ps, ids, labels, group_size=4)
+    assert len(kids) == 3
+    st = w.body_state()
+    assert not st.alive[parent] and st.alive[kids].all()
+    assert parent not in w.sphere_data()[2]
+    # mass: each child is the exactly rounded sum of its tets; together within 2 ulp of the parent
+    masses = [w.body_mass(b) for b in kids]
+    for b, lab in zip(kids, (3, 7, 11), strict=True):
+        assert w.body_mass(b) == math.fsum(ps.mass[labels == lab].tolist())
+        assert np.all(ps.body[labels == lab] == b)
+        assert len(w.body_spheres(b)) > 0
+    assert abs(math.fsum(masses) - m_parent) <= 2 * np.spacing(m_parent)
+    # momentum and angular momentum to round-off
+    p1, l1 = _momenta(w, kids)
+    print(
+        f"split: |dP| {np.abs(p1 - p0).max():.1e} |dL| {np.abs(l1 - l0).max():.1e} "
+        f"(|P| {np.linalg.norm(p0):.2f}, "
+        f"|L| {np.linalg.norm(l0):.2f})"
+    )
+    assert np.abs(p1 - p0).max() <= 1e-13 * np.linalg.norm(p0)
+    assert np.abs(l1 - l0).max() <= 1e-13 * np.linalg.norm(l0)
+    # every tet stays where it was
+    for b, lab in zip(kids, (3, 7, 11), strict=True):
+        sel = labels == lab
+        after = _world_vertices(w, b, ps.rest_verts[sel].reshape(-1, 3)).reshape(-1, 4, 3)
+        np.testing.assert_allclose(after, before[sel], atol=1e-14)
+    # the fragments then move apart without gaining energy and keep linear momentum exactly
+    ke0 = w.kinetic_energy()
+    for _ in range(60):
+        w.step(DT)
+        p, _l = _momenta(w, kids)
+        assert np.abs(p - p0).max() <= 1e-12 * np.linalg.norm(p0)
+        assert w.kinetic_energy() <= ke0 * (1 + 1e-6)  # the DLM rotation keeps E to O(h^2), no drift
+
+
+def test_split_of_a_resting_body_wakes_and_drops_its_fragments(world):
+    w = world
+    w.clear()
+    w.config = RigidConfig()
+    w.add_plane((0, 0, 0), (0, 1, 0))
+    ps = build_particles(box_tetmesh([0.1, 0.05, 0.05], (2, 1, 1), center=(0.0, 0.05, 0.0)), 1000.0)
+    b = add_tet_body(w, ps, group_size=1)
+    for _ in range(240):
+        w.step(DT)
+    assert w.body_state().asleep[b]
+    kids = split_body(w, b, ps, np.arange(len(ps)), (ps.centroid[:, 0] > 0).astype(int), group_size=1)
+    st = w.body_state()
+    assert not st.asleep[kids].any()
+    for _ in range(120):
+        w.step(DT)
+    st = w.body_state()
+    assert np.all(np.isfinite(st.x[kids])) and np.all(np.abs(st.v[kids]) < 0.5)
+
+
+def test_split_of_a_static_pane_frees_only_the_unheld_shard(world):
+    w = world
+    w.clear()
+    w.config = RigidConfig()
+    ps = build_particles(box_tetmesh([0.2, 0.2, 0.01], (4, 4, 1), center=(0.0, 1.0, 0.0)), 2500.0)
+    pane = add_tet_body(w, ps, group_size=4, static=True)
+    labels = (ps.centroid[:, 0] > 0.1).astype(int)  # label 1: a strip at +x, no longer held
+    kids = split_body(w, pane, ps, np.arange(len(ps)), labels, group_size=4, static_labels=[True, False])
+    assert w.body_is_static(kids[0]) and not w.body_is_static(kids[1])
+    x0 = w.body_state().x[kids].copy()
+    for _ in range(24):
+        w.step(DT)
+    x1 = w.body_state().x[kids]
+    np.testing.assert_array_equal(x1[0], x0[0])  # the held part stays
+    assert x1[1, 1] < x0[1, 1] - 0.005  # the freed shard falls
