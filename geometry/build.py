@@ -98,7 +98,8 @@ def build_object(
         thickness = shape.thickness()
     particles = build_particles(mesh, density, body=body)
     boundary = build_boundary_particles(
-        particles.centroid, particles.radius, particles.mass, particles.body, particles.surface, group_size
+        particles.centroid, particles.radius, particles.mass, particles.body, particles.surface, group_size,
+        rest_verts=particles.rest_verts, free_faces=particles.links < 0,
     )
     report = quality_report(mesh) if not tet_report else tet_report
     report.update(

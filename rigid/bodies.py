@@ -120,25 +120,32 @@ def box_surface_spheres(half_extents, radius: float, per_edge: int = 4) -> tuple
 
 
 # --------------------------------------------------------------------------- bodies from particles
-def surface_mask(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """(len(ids),) bool: particle on its group's surface (a missing face link, or one to another group)."""
+def free_faces(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """(len(ids), 4) bool: faces on their group's surface (no face link, or one to another group)."""
     lab = np.full(len(particles), -1, dtype=np.int64)
     lab[ids] = labels
     lk = particles.links[ids]
     across = np.where(lk >= 0, lab[np.maximum(lk, 0)], -2)
-    return np.any((lk < 0) | (across != labels[:, None]), axis=1)
+    return (lk < 0) | (across != labels[:, None])
+
+
+def surface_mask(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """(len(ids),) bool: particle on its group's surface (a missing face link, or one to another group)."""
+    return free_faces(particles, ids, labels).any(axis=1)
 
 
 def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray, group_size: int):
     """Boundary spheres (geometry.boundary) of each label's surface particles; body = label index."""
-    surf = surface_mask(particles, ids, labels)
+    free = free_faces(particles, ids, labels)
     return build_boundary_particles(
         particles.centroid[ids],
         particles.radius[ids],
         particles.mass[ids],
         labels.astype(np.int32),
-        surf,
+        free.any(axis=1),
         group_size=group_size,
+        rest_verts=particles.rest_verts[ids],
+        free_faces=free,
     )
 
 
