@@ -162,6 +162,21 @@ def from_dict(cls: type, data: dict, path: str, source: str = "") -> Any:
     return obj
 
 
+def build_material(m: MaterialConfig, path: str, source: str):
+    """The sph.materials.Material of a material table; its errors carry the key path and file."""
+    from sph.materials import material_from_dict
+
+    d = dict(m.stiffness)
+    d.update(density=m.density, tensile_strength=m.tensile_strength, toughness=m.toughness,
+             restitution=m.restitution, friction=m.friction, name=m.name)
+    try:
+        return material_from_dict(d, key=f"{path}.stiffness")
+    except ConfigError as exc:
+        exc.source = source
+        exc.args = (f"{source}: {exc.args[0]}",)
+        raise
+
+
 @dataclass
 class KernelConfig:
     """The SPH kernel of a material (Sect. 4.1, Eq. 4-6)."""
@@ -184,6 +199,10 @@ class MaterialConfig:
     friction: float = spec_field("float", 0.5, lo=0.0, hi=10.0, unit="-")
     kernel: KernelConfig = spec_field("table", KernelConfig(), table=KernelConfig)
     cracks: int = spec_field("int", 3, lo=1, hi=32, unit="cracks per event")
+
+    def check(self, path: str, source: str) -> None:
+        self.elastic = build_material(self, path, source)  # validates the elastic constants now
+
 
 
 @dataclass
@@ -292,6 +311,9 @@ class SceneConfig:
         if not self.objects:
             raise ConfigError("objects", [], "at least one [[objects]] table", source)
         names = [m.name for m in self.materials]
+        for i, m in enumerate(self.materials):
+            if m.kernel.mode == "wpca" and not self.has("wpca"):
+                raise ConfigError(f"materials[{i}].kernel.mode", "wpca", "'wpca' in scene.effects too", source)
         for i, m in enumerate(names):
             if names.count(m) > 1:
                 raise ConfigError(f"materials[{i}].name", m, "a unique material name", source)

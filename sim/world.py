@@ -41,6 +41,7 @@ class BodyInfo:
     thickness: float  # m: the object's thickness B (Eq. 11)
     resolution: float  # m: tet size the object was built at
     history: list = field(default_factory=list)  # cracks already applied (reference frame)
+    bounds: tuple = ()  # (lo, hi) m: rest bounding box of the object the body came from
 
 
 def euler_xyz_deg(angles) -> np.ndarray:
@@ -131,6 +132,7 @@ class World:
         self.time = 0.0  # s
         self.dt_frame = 1.0 / cfg.scene.fps
         self.events: list[dict] = []  # one record per fracture event (stats.json)
+        self.analyses: list[dict] = []  # one record per crack analysis, cracked or not
         self.debris_mass = 0.0  # kg: shattered particles taken out of the simulation (no 'debris')
         self.surface_version = 0  # increases whenever fragment surfaces change
         t0 = time.perf_counter()
@@ -147,21 +149,7 @@ class World:
 
     # ------------------------------------------------------------------ building
     def _build_materials(self) -> None:
-        from sph.materials import material_from_dict
-
-        self.materials = []
-        for i, m in enumerate(self.cfg.materials):
-            d = dict(m.stiffness)
-            d.update(density=m.density, tensile_strength=m.tensile_strength, toughness=m.toughness,
-                     restitution=m.restitution, friction=m.friction, name=m.name)
-            try:
-                self.materials.append(material_from_dict(d, key=f"materials[{i}].stiffness"))
-            except ConfigError as exc:
-                exc.source = self.cfg.source
-                raise
-            if m.kernel.mode == "wpca" and not self.cfg.has("wpca"):
-                raise ConfigError(f"materials[{i}].kernel.mode", "wpca", "'wpca' needs 'wpca' in scene.effects",
-                                  self.cfg.source)
+        self.materials = [m.elastic for m in self.cfg.materials]  # validated when the scene was loaded
         self.material_index = {m.name: i for i, m in enumerate(self.cfg.materials)}
 
     def _object_geometry(self, i: int):
@@ -265,8 +253,10 @@ class World:
                 self.rigid, ps, ids, group_size=o.group_size, v=o.velocity, w=o.angular_velocity,
                 static=o.static, restitution=mat.restitution, friction=mat.friction,
             )
-            self.bodies[bid] = BodyInfo(sp["object"], o.breakable and not o.static, o.static, sp["thickness"],
-                                        o.resolution)
+            c = ps.centroid[ids]
+            sp["body"] = bid
+            self.bodies[bid] = BodyInfo(sp["object"], o.breakable, o.static, sp["thickness"], o.resolution,
+                                        bounds=(c.min(0), c.max(0)))
 
     def _build_elastic(self) -> None:
         from sph.elastic import ElasticEffect
@@ -293,6 +283,8 @@ class World:
         """Advance one frame: substeps of the enabled stages, then fracture events."""
         sc = self.cfg.scene
         impacts: dict[int, dict] = {}
+        if self.cfg.cracks and "rigid" in self.stages:
+            self._scripted_cracks()
         if "rigid" in self.stages:
             dt = self.dt_frame / sc.substeps
             for _ in range(sc.substeps):
@@ -342,6 +334,24 @@ class World:
             if record is not None:
                 self.events.append(record)
                 self.surface_version += 1
+
+    def _scripted_cracks(self) -> None:
+        """Cracks a scene applies at a given frame, without an impact analysis (teaching scenes)."""
+        from geometry.cutting import Crack
+        from sim.fracture_stage import cut_body
+
+        names = [o.name for o in self.cfg.objects]
+        for c in self.cfg.cracks:
+            if c.frame != self.frame:
+                continue
+            obj = names.index(c.object)
+            body = next(sp["body"] for sp in self._spawn if sp["object"] == obj)
+            if body not in self.bodies:
+                continue
+            crack = Crack(point=c.point, normal=c.normal, r_outer=c.radius, side=c.side or None, r_inner=c.r_inner)
+            record = dict(frame=self.frame, body=body, speed=0.0, scripted=True, stress_analysis_ms=0.0)
+            self.events.append(cut_body(self, body, [crack], record))
+            self.surface_version += 1
 
     def _check_finite(self) -> None:
         if "rigid" in self.stages:

@@ -1,0 +1,65 @@
+"""Only what a scene calls for runs: a rigid-only scene builds, imports and launches nothing else."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from scenes.loader import load_scene
+from sim.world import World, stage_list
+
+ROOT = Path(__file__).resolve().parents[2]
+
+PROBE = """
+import json, sys
+sys.path.insert(0, {root!r})
+from sim.runtime import init_taichi
+init_taichi("cpu", "f64", threads=1)
+import taichi as ti
+from scenes.loader import load_scene
+from sim.world import World
+w = World(load_scene("rigid_pile"))
+for _ in range(3):
+    w.step_frame()
+print(json.dumps(dict(
+    stages=w.stages,
+    allocations=sorted(w.allocations),
+    modules=sorted(m for m in sys.modules if m.split(".")[0] in ("sph", "geometry", "rigid", "render")),
+)))
+"""
+
+FRACTURE_MODULES = {"sph.corotated", "sph.neighbours", "sph.elastic", "sph.cracks", "sph.contact", "sph.kernel",
+                    "geometry.cutting", "geometry.subdivision", "geometry.fragments", "geometry.surface"}
+
+
+def test_rigid_pile_builds_no_fracture_or_sph_stage():
+    out = subprocess.run([sys.executable, "-c", PROBE.format(root=str(ROOT))], capture_output=True, text=True,
+                         timeout=300, cwd=ROOT)
+    assert out.returncode == 0, out.stderr[-2000:]
+    info = json.loads(out.stdout.strip().splitlines()[-1])
+    assert info["stages"] == ["rigid"]
+    assert info["allocations"] == ["rigid"]
+    # a module never imported can neither allocate a field nor compile or launch a kernel
+    loaded = set(info["modules"])
+    assert not (loaded & FRACTURE_MODULES), loaded & FRACTURE_MODULES
+    assert "rigid.world" in loaded
+
+
+def test_stage_lists_follow_effects():
+    assert stage_list(load_scene("rigid_pile")) == ["rigid"]
+    assert stage_list(load_scene("pot")) == [
+        "rigid", "fracture.analysis", "fracture.subdivision", "fracture.shatter", "fracture.split"]
+    assert stage_list(load_scene("pot_basic")) == [
+        "rigid", "fracture.analysis", "fracture.links", "fracture.shatter", "fracture.split"]
+    assert stage_list(load_scene("wire")) == ["elastic"]
+
+
+def test_world_allocations_match_stages():
+    w = World(load_scene("tet_cut_31"))
+    try:
+        assert sorted(w.allocations) == ["rigid"]
+        assert not hasattr(w, "elastic")
+    finally:
+        w.release()
