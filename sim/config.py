@@ -222,7 +222,7 @@ class ObjectConfig:
     breakable: bool = spec_field("bool", True)
     static: bool = spec_field("bool", False)
     group_size: int = spec_field("int", 4, lo=1, hi=16, unit="particles per boundary particle")
-    fixed_box: list = spec_field("floats", [], lo=-1e6, hi=1e6, unit="m: min x y z, max x y z; elastic: fixed particles")
+    fixed_box: list = spec_field("floats", [], lo=-1e6, hi=1e6, unit="m: min xyz, max xyz of fixed particles")
     held_border: float = spec_field("float", 0.0, lo=0.0, hi=100.0, unit="m: static breakable objects keep fragments "
                                     "within this distance of their bounding box's sides fixed (a window frame)")
     count: int = spec_field("int", 1, lo=1, hi=100, unit="copies")
