@@ -1,0 +1,137 @@
+"""SPH gradient (Eq. 7) of the contact fields at tet particles against the analytic gradient:
+the error shrinks with resolution for plain SPH, Bonet-Lok and the quadratic fit; the operator is
+the one sph/corotated.py uses (orders 0 and 1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from geometry.build import build_object
+from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
+from sph.cracks import neighbour_pairs, sph_gradient
+from sph.kernel import kernel_isotropic
+
+E, NU = 7.0e10, 0.22
+R_REGION = 0.03  # m: fixed region around the load where the error is measured
+ELL = 0.01  # m: fixed regularisation length (the same field at every resolution)
+H_FACTOR = 2.0  # kernel support radius / tet resolution
+
+
+def _errors(kind: str, res: float) -> tuple[int, list[float]]:
+    """Volume-weighted relative L2 error of grad u over the region, for orders 0, 1, 2."""
+    if kind == "block":
+        obj = build_object("box", shape_params=dict(size=[0.12, 0.12, 0.06]), resolution=res)
+        top = 0.03
+    else:
+        obj = build_object("pane", shape_params=dict(size=[0.16, 0.16, 0.008]), resolution=res)
+        top = 0.004
+    ps = obj.particles
+    x, V = ps.centroid, ps.volume
+    P = np.array([0.0013, 0.0007, top])
+    n = np.array([0.0, 0.0, -1.0])  # inward normal of the top face
+    frame = np.stack([[1.0, 0.0, 0.0], np.cross(n, [1.0, 0.0, 0.0]), n])
+    loc = (x - P) @ frame.T
+    G = np.broadcast_to(kernel_isotropic(H_FACTOR * res), (len(x), 3, 3))
+    d = np.linalg.norm(x - P, axis=1)
+    mem = np.flatnonzero(d < R_REGION)
+    own, nbr = neighbour_pairs(x, G, mem, np.flatnonzero(d < R_REGION + H_FACTOR * res))
+    if kind == "block":
+        u = boussinesq_displacement(loc, 1.0, E, NU, ELL) @ frame
+        ga = boussinesq_gradient(loc[mem], 1.0, E, NU, ELL)
+    else:
+        u = plate_displacement(loc, 1.0, E, NU, 0.008, 0.3, ELL) @ frame
+        ga = plate_gradient(loc[mem], 1.0, E, NU, 0.008, 0.3, ELL)
+    ga = np.einsum("ai,nab,bj->nij", frame, ga, frame)
+    errs = []
+    for order in (0, 1, 2):
+        g, used = sph_gradient(x, V, G, u, mem, own, nbr, order)
+        assert np.all(used == order)  # no fallback in these neighbourhoods
+        num = (V[mem] * ((g - ga) ** 2).sum(axis=(1, 2))).sum()
+        den = (V[mem] * (ga**2).sum(axis=(1, 2))).sum()
+        errs.append(math.sqrt(num / den))
+    return len(x), errs
+
+
+def _report(kind: str, rows: list) -> None:
+    print(f"\n[SPH gradient of the {kind} field, h = {H_FACTOR} x resolution, region r < {R_REGION} m]")
+    for res, n, e in rows:
+        print(f"  res {res * 1e3:5.1f} mm  {n:6d} particles  rel. L2 error: plain {e[0]:.4f}  "
+              f"Bonet-Lok {e[1]:.4f}  quadratic {e[2]:.4f}")
+
+
+def _check_convergence(rows: list, shrink: tuple[float, float, float]) -> None:
+    first, last = rows[0][2], rows[-1][2]
+    for order in range(3):
+        assert last[order] < shrink[order] * first[order], f"order {order}: {first[order]:.4f} -> {last[order]:.4f}"
+    assert last[2] < last[1] < last[0]  # each correction order helps
+
+
+def test_plate_field_gradient_converges(capsys):
+    rows = []
+    for res in (0.012, 0.008, 0.0056):
+        n, e = _errors("pane", res)
+        rows.append((res, n, e))
+    with capsys.disabled():
+        _report("plate (pane 0.16 x 0.16 x 0.008 m)", rows)
+    _check_convergence(rows, (0.8, 0.4, 0.4))
+    assert rows[-1][2][2] < 0.01
+
+
+def test_boussinesq_field_gradient_converges(capsys):
+    rows = []
+    for res in (0.012, 0.008):
+        n, e = _errors("block", res)
+        rows.append((res, n, e))
+    with capsys.disabled():
+        _report("Boussinesq (block 0.12 x 0.12 x 0.06 m)", rows)
+    _check_convergence(rows, (0.85, 0.75, 0.7))
+    assert rows[-1][2][2] < 0.2
+
+
+@pytest.mark.slow
+def test_boussinesq_field_gradient_converges_finer(capsys):
+    rows = []
+    for res in (0.012, 0.008, 0.0056):
+        n, e = _errors("block", res)
+        rows.append((res, n, e))
+    with capsys.disabled():
+        _report("Boussinesq (block, three resolutions)", rows)
+    _check_convergence(rows, (0.7, 0.5, 0.4))
+
+
+def test_gradient_operator_is_the_corotated_one():
+    """Orders 0 and 1 give the same d_ij as sph.corotated.rest_operators on the same pairs."""
+    from sph.corotated import rest_operators
+
+    obj = build_object("box", shape_params=dict(size=[0.06, 0.06, 0.03]), resolution=0.01)
+    x, V = obj.particles.centroid, obj.particles.volume
+    G = np.broadcast_to(kernel_isotropic(0.02), (len(x), 3, 3)).copy()
+    mem = np.arange(len(x))
+    own, nbr = neighbour_pairs(x, G, mem, mem)
+    off = np.concatenate([[0], np.cumsum(np.bincount(own, minlength=len(x)))])
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(len(x), 3))
+    for order in (0, 1):
+        rest = rest_operators(x, V, G, off, nbr, order)
+        ref = np.zeros((len(x), 3, 3))
+        np.add.at(ref, own, (u[nbr] - u[own])[:, :, None] * rest["d"][:, None, :])
+        g, _ = sph_gradient(x, V, G, u, mem, own, nbr, order)
+        assert np.allclose(g, ref, rtol=1e-10, atol=1e-10 * np.abs(ref).max())
+
+
+def test_linear_field_is_exact_with_correction():
+    """Patch test: orders 1 and 2 reproduce a linear field's gradient at every particle (surface too)."""
+    obj = build_object("box", shape_params=dict(size=[0.06, 0.06, 0.03]), resolution=0.01)
+    x, V = obj.particles.centroid, obj.particles.volume
+    G = np.broadcast_to(kernel_isotropic(0.02), (len(x), 3, 3))
+    mem = np.arange(len(x))
+    own, nbr = neighbour_pairs(x, G, mem, mem)
+    A = np.array([[1.0, -2.0, 0.5], [0.3, 0.7, -1.1], [2.0, 0.1, -0.4]]) * 1e-3
+    for order in (1, 2):
+        g, used = sph_gradient(x, V, G, x @ A.T, mem, own, nbr, order)
+        ok = used == order
+        assert ok.mean() > 0.9
+        assert np.abs(g[ok] - A).max() < 1e-9 * np.abs(A).max()

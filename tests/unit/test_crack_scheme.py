@@ -1,0 +1,336 @@
+"""sph.cracks, Algorithm 1: threshold, crack count, radii, anisotropy, fragments, robustness.
+
+The test plate is a glass pane 0.3 x 0.3 x 0.008 m (tets at 1 cm), struck at its centre by a steel
+ball of 1 cm radius; kernels are isotropic with support 2 cm unless a test changes them."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from geometry.build import build_object
+from geometry.fragments import apply_cracks, fragment_volumes
+from sim.errors import ConfigError
+from sph.contact import hertz_impact, speed_for_force
+from sph.cracks import (
+    ImpactSpec,
+    analyse_impact,
+    hertz_cone_threshold,
+    tet_edge,
+    threshold_speed,
+)
+from sph.kernel import kernel_from_axes, kernel_isotropic
+from sph.materials import Material, stiffness_isotropic, stiffness_orthotropic
+
+RES = 0.01
+H = 2.0 * RES
+THICK = 0.008
+SIGMA_T = 5.0e7  # Pa, glass
+BALL = dict(m2=7850.0 * 4.0 / 3.0 * math.pi * 0.01**3, R2=0.01, E2=2.1e11, nu2=0.30)
+PHI = math.radians(30.0)  # in-plane axis of the anisotropic variants
+S_AXIS = np.array([math.cos(PHI), math.sin(PHI), 0.0])
+ROT = np.array([[math.cos(PHI), -math.sin(PHI), 0.0], [math.sin(PHI), math.cos(PHI), 0.0], [0.0, 0.0, 1.0]])
+
+
+def glass(sigma_t: float = SIGMA_T, toughness: float = 10.0, scale_E: float = 1.0) -> Material:
+    return Material("glass", 2500.0, stiffness_isotropic(7e10 * scale_E, 0.22), tensile_strength=sigma_t,
+                    toughness=toughness)
+
+
+@pytest.fixture(scope="module")
+def pane():
+    obj = build_object("pane", shape_params=dict(size=[0.3, 0.3, THICK]), resolution=RES)
+    return obj
+
+
+def impact(pane, speed: float, reference=(1.0, 0.0, 0.0), **kw) -> ImpactSpec:
+    args = dict(BALL)
+    args.update(kw)
+    return ImpactSpec(point=[0.001, 0.002, 0.5 * THICK], normal=[0.0, 0.0, -1.0], speed=speed,
+                      m1=float(pane.particles.mass.sum()), R1=math.inf, reference=reference, **args)
+
+
+def analyse(pane, speed: float, N: int = 3, material: Material | None = None, G=None, **kw):
+    ps = pane.particles
+    imp = impact(pane, speed, **{k: v for k, v in kw.items() if k in ("reference", "m2", "R2", "E2", "nu2")})
+    rest = {k: v for k, v in kw.items() if k in ("correction", "field", "gradient")}
+    G = kernel_isotropic(H) if G is None else G
+    return analyse_impact(ps.centroid, ps.volume, G, material or glass(), imp, N, pane.thickness, **rest), imp
+
+
+def bisect_threshold(fired, lo: float, hi: float, rel: float = 1e-7) -> float:
+    assert not fired(lo) and fired(hi)
+    while hi - lo > rel * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if fired(mid) else (mid, hi)
+    return 0.5 * (lo + hi)
+
+
+def line_angle_to(an, k: int, axis: np.ndarray) -> float:
+    """Angle (deg, 0..90) between group k's crack line in the plate (n x normal) and an in-plane axis."""
+    line = np.cross(an.frame[2], an.principal_dir[k])
+    line /= np.linalg.norm(line)
+    return math.degrees(math.acos(min(1.0, abs(float(line @ axis)))))
+
+
+# ----------------------------------------------------------------------------- threshold
+
+
+def test_threshold_speed_matches_bisection(pane, capsys):
+    """No crack below the analytic threshold, cracks above; bisection on the analysis agrees."""
+    an, imp = analyse(pane, 1.0)
+    assert an.field == "plate"
+    v_th = threshold_speed(an, imp)
+    v_bis = bisect_threshold(lambda v: bool(analyse(pane, v)[0].fired.any()), 0.5 * v_th, 2.0 * v_th)
+    # precondition of linearity: the contact radius stays below the regularisation floor r_P
+    assert analyse(pane, v_th)[0].hertz.radius_a < an.regularisation
+    assert v_bis == pytest.approx(v_th, rel=1e-6)
+    below, _ = analyse(pane, 0.98 * v_th)
+    above, _ = analyse(pane, 1.02 * v_th)
+    assert not below.fired.any() and below.cracks == []
+    assert above.fired.any() and len(above.cracks) == int(above.fired.sum())
+    with capsys.disabled():
+        print(f"\n[threshold] glass pane, 1 cm steel ball, sigma_t = {SIGMA_T / 1e6:.0f} MPa: analysis "
+              f"v_th = {v_th:.3f} m/s (bisection {v_bis:.3f}); classical Hertz cone criterion "
+              f"{hertz_cone_threshold(glass(), imp):.2e} m/s")
+
+
+def test_threshold_scales_with_strength_and_stiffness(pane, capsys):
+    """The group stress is linear in F (F ~ v^(6/5) E*^(2/5)) and independent of E at given F, so
+    v_th ~ sigma_t^(5/6) E*^(-1/3): doubling sigma_t -> x 2^(5/6) = 1.782; doubling E (rigid ball,
+    so E* doubles) -> x 2^(-1/3) = 0.794. (The Hertz peak stress ~ v^(2/5) would give 2^(5/2) = 5.66.)"""
+    rigid = dict(E2=math.inf)
+
+    def v_th(material: Material) -> float:
+        an, imp = analyse(pane, 1.0, material=material, **rigid)
+        guess = threshold_speed(an, imp)
+        return bisect_threshold(lambda v: bool(analyse(pane, v, material=material, **rigid)[0].fired.any()),
+                                0.7 * guess, 1.4 * guess, rel=1e-5)
+
+    base = v_th(glass())
+    strong = v_th(glass(sigma_t=2 * SIGMA_T))
+    stiff = v_th(glass(scale_E=2.0))
+    with capsys.disabled():
+        print(f"\n[threshold scaling] v_th = {base:.4f} m/s; 2 sigma_t: x {strong / base:.4f} "
+              f"(theory {2 ** (5 / 6):.4f}); 2 E: x {stiff / base:.4f} (theory {2 ** (-1 / 3):.4f})")
+    assert strong / base == pytest.approx(2 ** (5 / 6), rel=0.02)
+    assert stiff / base == pytest.approx(2 ** (-1 / 3), rel=0.02)
+
+
+# ----------------------------------------------------------------------------- crack count and shape
+
+
+@pytest.mark.parametrize("N", [1, 2, 3, 5])
+def test_n_groups_give_n_radial_cracks(pane, N):
+    v_th = threshold_speed(*analyse(pane, 1.0, N=N))
+    an, _ = analyse(pane, 3.0 * v_th, N=N)
+    assert len(an.cracks) == N and an.fired.all()
+    assert np.bincount(an.group, minlength=N).tolist() == an.members.tolist()
+    for k, crack in enumerate(an.cracks):
+        assert abs(float(crack.normal @ an.frame[2])) < 1e-9  # plate: radial cracks contain the normal
+        assert line_angle_to(an, k, an.bisector[k]) < 15.0  # the crack runs along its group's bisector
+        assert crack.r_outer >= an.support_radius
+        if N == 1:
+            assert crack.side is None
+        else:
+            assert crack.side is not None and float(crack.side @ an.bisector[k]) > math.cos(math.radians(15.0))
+
+
+@pytest.mark.parametrize("N", [1, 3, 5])
+def test_cracks_cut_the_pane_into_n_pieces(pane, N):
+    """End to end with geometry.fragments: N radial cracks to the edge cut the pane into N pieces
+    (N = 1: one straight crack, two pieces), plus the shattered particles within r_inner."""
+    v_th = threshold_speed(*analyse(pane, 1.0, N=N))
+    an, _ = analyse(pane, 3.0 * v_th, N=N)
+    out, rep = apply_cracks(pane.particles, an.cracks, mode="basic", shatter=True)
+    vol = fragment_volumes(out, rep.labels)
+    big = np.sort(vol)[::-1]
+    pieces = max(N, 2)
+    assert big[:pieces].sum() > 0.95 * vol.sum()
+    assert big[pieces - 1] > 0.5 * vol.sum() / pieces * 0.5
+    assert rep.n_fragments == pieces + len(rep.debris)
+    assert len(rep.debris) > 0 and an.r_inner > 0.0
+
+
+def test_thick_block_gets_cone_facets():
+    """A thick body is a half-space: the tension below a point load makes inclined (cone) cracks
+    whose half-discs run into the body, not radial ones."""
+    obj = build_object("box", shape_params=dict(size=[0.1, 0.1, 0.06]), resolution=RES)
+    ps = obj.particles
+    imp = ImpactSpec(point=[0.001, 0.002, 0.03], normal=[0.0, 0.0, -1.0], speed=5.0, m1=float(ps.mass.sum()),
+                     R1=math.inf, reference=[1.0, 0.0, 0.0], **BALL)
+    for grad in ("sph", "analytic"):
+        an = analyse_impact(ps.centroid, ps.volume, kernel_isotropic(H), glass(sigma_t=1e4), imp, 3, obj.thickness,
+                            gradient=grad)
+        assert an.field == "halfspace"
+        assert len(an.cracks) == 3
+        for crack in an.cracks:
+            tilt = abs(float(crack.normal @ an.frame[2]))
+            assert 0.2 < tilt < 0.9, grad  # neither radial (0) nor parallel to the surface (1)
+            assert float(crack.side @ an.frame[2]) > 0.2  # the half-disc goes into the body
+        # the kernel-scale tension of a half-space is small: F / rho^2 scale, far below the Hertz p0
+        assert an.principal_stress[:, 0].max() < 0.01 * an.hertz.p0
+
+
+# ----------------------------------------------------------------------------- radii
+
+
+def test_r_outer_grows_with_speed_and_shrinks_with_toughness(pane):
+    tough = glass(toughness=200.0)  # a large G_c keeps r_outer inside its clamps
+    v_th = threshold_speed(*analyse(pane, 1.0, material=tough))
+    speeds = [1.5 * v_th, 2.0 * v_th, 2.5 * v_th]
+    runs = [analyse(pane, v, material=tough)[0] for v in speeds]
+    for an in runs:
+        assert an.fired.all()
+        assert np.all(an.r_outer > an.support_radius)  # not clamped below
+        assert np.all(an.r_outer < 0.2)  # nor above
+    r = np.array([an.r_outer for an in runs])
+    assert np.all(np.diff(r, axis=0) > 0.0)
+    tougher = analyse(pane, 2.0 * v_th, material=glass(toughness=400.0))[0]
+    assert np.all(tougher.r_outer > tougher.support_radius)
+    assert np.allclose(tougher.r_outer, 0.5 * runs[1].r_outer, rtol=1e-12)  # r_outer ~ 1 / G_c
+
+
+def test_r_inner_follows_the_energy_limit(pane):
+    """r_inner = 0 while the released energy U is below U* = 64 pi h^3 u_limit / 315 (the poly6
+    density at the centre equals u_limit), positive above, and u(r_inner) = u_limit."""
+    h = None
+    seen = {False: 0, True: 0}
+    for v in np.geomspace(0.3, 20.0, 12):
+        an, _ = analyse(pane, float(v))
+        h = an.support_radius
+        U = float(an.energy_available.sum())
+        U_star = 64.0 * math.pi * h**3 * an.u_limit / 315.0
+        if U < U_star:
+            assert an.r_inner == 0.0
+        else:
+            assert an.r_inner > 0.0
+            dens = 315.0 / (64.0 * math.pi * h**9) * (h * h - an.r_inner**2) ** 3 * U
+            assert dens == pytest.approx(an.u_limit, rel=1e-9)
+            assert all(c.r_inner == an.r_inner for c in an.cracks)
+        seen[U >= U_star] += 1
+    assert seen[False] and seen[True]
+    # u_limit is the energy density that frees a regular tet of the nearest particle's volume
+    V = float(pane.particles.volume[an.nearest])
+    e = tet_edge(V)
+    assert an.u_limit == pytest.approx(10.0 * math.sqrt(3.0) * e * e / V, rel=1e-12)
+
+
+def test_energy_is_capped_by_the_impact(pane):
+    an, _ = analyse(pane, 10.0)
+    assert an.energy_available.sum() <= an.kinetic_energy * (1 + 1e-12)
+    assert np.all(an.energy_available <= an.energy)
+    hz = hertz_impact(float(pane.particles.mass.sum()), BALL["m2"], math.inf, BALL["R2"], an.E1, an.nu1,
+                      BALL["E2"], BALL["nu2"], 10.0)
+    assert an.hertz.force == pytest.approx(hz.force, rel=1e-12)
+    assert speed_for_force(an.hertz.force, hz.m_eff, hz.R_eff, hz.E_eff) == pytest.approx(10.0, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- anisotropy
+
+
+def test_stretched_kernel_turns_the_cracks_towards_its_axis(pane, capsys):
+    """Fig. 8: a kernel stretched x1.6 along an in-plane axis s (30 deg from x) and shrunk x1/1.6
+    across it gathers its members along s; with the bending tension (hoop > radial) the crack lines
+    turn towards s, i.e. the normals towards the in-plane perpendicular of s. Same impact, same
+    sector reference (x), so the rotation comes from the kernel alone."""
+    v = 3.0 * threshold_speed(*analyse(pane, 1.0))
+    Gs = kernel_from_axes(ROT, [1.6 * H, H / 1.6, H])
+    rows = []
+    for grad in ("sph", "analytic"):
+        iso, _ = analyse(pane, v, gradient=grad)
+        ani, _ = analyse(pane, v, G=Gs, gradient=grad)
+        a_iso = np.array([line_angle_to(iso, k, S_AXIS) for k in range(3)])
+        a_ani = np.array([line_angle_to(ani, k, S_AXIS) for k in range(3)])
+        rows.append((grad, a_iso, a_ani))
+        assert a_ani.mean() < a_iso.mean() - 5.0
+        assert np.sum(a_ani < a_iso) >= 2
+    # with the default reference, the sectors start on the kernel's long in-plane axis
+    ani_default, _ = analyse(pane, v, G=Gs, reference=None)
+    assert abs(float(ani_default.frame[0] @ S_AXIS)) > 1 - 1e-12
+    assert line_angle_to(ani_default, 0, S_AXIS) < 15.0
+    with capsys.disabled():
+        for grad, a, b in rows:
+            print(f"\n[kernel x1.6 along 30 deg, {grad}] crack line to s: iso {np.round(a, 1)} deg -> "
+                  f"stretched {np.round(b, 1)} deg", end="")
+        print()
+
+
+def test_orthotropic_stiffness_turns_the_normals_towards_the_stiff_axis(pane, capsys):
+    """Strain from the (effective isotropic) contact field, stress from the full C: a material three
+    times stiffer along s carries more tension along s, so the crack normals turn towards s."""
+    v = 3.0 * threshold_speed(*analyse(pane, 1.0))
+    C = stiffness_orthotropic(21e10, 7e10, 7e10, 0.22, 0.22, 0.22, 2.87e10, 2.87e10, 2.87e10, axes=ROT)
+    ortho = Material("ortho", 2500.0, C, tensile_strength=SIGMA_T, toughness=10.0)
+    iso, _ = analyse(pane, v)
+    ani, _ = analyse(pane, v, material=ortho)
+    n_iso = np.array([math.degrees(math.acos(min(1.0, abs(float(iso.principal_dir[k] @ S_AXIS))))) for k in range(3)])
+    n_ani = np.array([math.degrees(math.acos(min(1.0, abs(float(ani.principal_dir[k] @ S_AXIS))))) for k in range(3)])
+    with capsys.disabled():
+        print(f"\n[orthotropic, E x3 along 30 deg] normal to s: iso {np.round(n_iso, 1)} deg -> "
+              f"orthotropic {np.round(n_ani, 1)} deg; max tension {ani.principal_stress[:, 0].max() / 1e6:.0f} MPa "
+              f"(iso {iso.principal_stress[:, 0].max() / 1e6:.0f} MPa)")
+    assert n_ani.mean() < n_iso.mean() - 20.0
+    assert np.all(n_ani < 15.0)
+
+
+# ----------------------------------------------------------------------------- robustness and output
+
+
+def test_deterministic_and_serialisable(pane):
+    a, _ = analyse(pane, 9.0)
+    b, _ = analyse(pane, 9.0)
+    for f in ("principal_stress", "principal_dir", "r_outer", "energy", "particles", "group"):
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    d = json.loads(json.dumps(a.to_dict()))
+    assert len(d["cracks"]) == len(a.cracks) and d["analysed_particles"] == a.particles.size
+    assert d["hertz"]["force"] == pytest.approx(a.hertz.force)
+
+
+def test_correction_orders_and_field_choice(pane):
+    """Plain SPH and Bonet-Lok are available; plate vs half-space can be forced."""
+    v = 9.0
+    for corr in (False, True, 0, 1, 2):
+        an, _ = analyse(pane, v, correction=corr)
+        assert np.all(np.isfinite(an.principal_stress))
+    hs, _ = analyse(pane, v, field="halfspace")
+    assert hs.field == "halfspace" and hs.plate_thickness == 0.0
+
+
+def test_no_neighbours_no_cracks(pane):
+    """A contact point outside every kernel gives an empty analysis, not an error."""
+    ps = pane.particles
+    imp = ImpactSpec(point=[0.0, 0.0, 1.0], normal=[0.0, 0.0, -1.0], speed=50.0, m1=1.0, R1=math.inf, **BALL)
+    an = analyse_impact(ps.centroid, ps.volume, kernel_isotropic(H), glass(), imp, 3, THICK)
+    assert an.particles.size == 0 and an.cracks == [] and not an.fired.any()
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(crack_count=0),
+        dict(crack_count=2.5),
+        dict(thickness=-1.0),
+        dict(field="membrane"),
+        dict(gradient="magic"),
+        dict(correction=3),
+    ],
+)
+def test_bad_arguments_raise_config_errors(pane, kw):
+    ps = pane.particles
+    args = dict(crack_count=3, thickness=THICK)
+    args.update(kw)
+    with pytest.raises(ConfigError):
+        analyse_impact(ps.centroid, ps.volume, kernel_isotropic(H), glass(), impact(pane, 5.0), **args)
+
+
+def test_bad_impact_specs_raise_config_errors():
+    good = dict(point=[0, 0, 0], normal=[0, 0, 1], speed=1.0, m1=1.0, R1=0.1)
+    for key, bad in (("normal", [0, 0, 0]), ("speed", 0.0), ("point", [0, 0]), ("reference", [0, 0, 2.0])):
+        args = dict(good)
+        args[key] = bad
+        with pytest.raises(ConfigError):
+            ImpactSpec(**args)
