@@ -218,3 +218,28 @@ class RigidStore:
         if self._tree is not None:
             self._tree.destroy()
             self._tree = None
+
+
+# Stores are recycled: the rigid kernels take the store as a template argument, so each new store
+# object recompiles every kernel of the step (about 10 s on this machine); a recycled store with the
+# same capacities reuses them. Capacities are rounded up to powers of two so that stores match.
+_POOL: dict[tuple[int, int, int, int], list[RigidStore]] = {}
+
+
+def _key(nb: int, ns: int, ncol: int, nct: int) -> tuple[int, int, int, int]:
+    return tuple(_pow2_at_least(max(16, int(n))) for n in (nb, ns, ncol, nct))  # type: ignore[return-value]
+
+
+def acquire_store(nb: int, ns: int, ncol: int, nct: int) -> RigidStore:
+    """A store with at least these capacities: a recycled one when available, else a new one."""
+    key = _key(nb, ns, ncol, nct)
+    free = _POOL.get(key)
+    if free:
+        return free.pop()
+    return RigidStore(*key)
+
+
+def recycle_store(store: RigidStore) -> None:
+    """Give a store back for reuse (its content is stale; the next owner uploads what it uses)."""
+    key = (store.cap_bodies, store.cap_spheres, store.cap_colliders, store.cap_contacts)
+    _POOL.setdefault(key, []).append(store)

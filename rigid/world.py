@@ -26,7 +26,7 @@ import numpy as np
 from rigid import kernels as K
 from rigid.mass import MassProperties
 from rigid.quat import IDENTITY, quat_to_matrix
-from rigid.store import RigidStore
+from rigid.store import acquire_store, recycle_store
 from sim.errors import CapacityError, ConfigError
 from sim.runtime import numpy_float
 
@@ -216,7 +216,7 @@ class RigidWorld:
                 raise ConfigError(f"rigid.{name}", val, ">= 1")
         nct = capacity_contacts if capacity_contacts is not None else 4 * int(capacity_spheres)
         self.max_spheres = max_spheres
-        self._s = RigidStore(int(capacity_bodies), int(capacity_spheres), int(capacity_colliders), int(nct))
+        self._s = acquire_store(int(capacity_bodies), int(capacity_spheres), int(capacity_colliders), int(nct))
         self.time = 0.0  # s: simulated time
         self.step_count = 0
         self.grow_count = 0  # how many times the store was rebuilt bigger
@@ -244,8 +244,10 @@ class RigidWorld:
         self.step_count = 0
 
     def release(self) -> None:
-        """Destroy the Taichi fields; the world is unusable afterwards."""
-        self._s.release()
+        """Give the Taichi store back for reuse (rigid.store); the world is unusable afterwards."""
+        if self._s is not None:
+            recycle_store(self._s)
+            self._s = None
 
     @property
     def n_bodies(self) -> int:
@@ -309,12 +311,12 @@ class RigidWorld:
         nct = max(nct, 4 * ns if ns > old.cap_spheres else nct)
         state = self._download_bodies(self._nb)
         prev = self._download_prev()
-        self._s = RigidStore(nb, ns, ncol, nct)
+        self._s = acquire_store(nb, ns, ncol, nct)
         self._upload_bodies(0, self._nb, state)
         self._upload_spheres(0, self._ns)
         self._upload_colliders(0, self._ncol)
         self._upload_prev(*prev)
-        old.release()
+        recycle_store(old)
         self.grow_count += 1
 
     def _ensure(self, bodies: int, spheres: int, colliders: int) -> None:
