@@ -286,8 +286,7 @@ class SceneSection:
     gravity: list = spec_field("vec3", [0.0, -9.81, 0.0], lo=-1e3, hi=1e3, unit="m/s^2")
     fracture_mode: str = spec_field("str", "auto", choices=("auto", "basic", "subdivision"))
     impact_threshold: float = spec_field("float", 0.5, lo=0.0, hi=1e3, unit="m/s relative normal speed")
-    particle_capacity: float = spec_field("float", 4.0, lo=1.0, hi=64.0, unit="x initial particles")
-    expected_fragments: list = spec_field("floats", [1.0, 1e9], length=2, lo=0.0, unit="[min, max] after a run")
+    expected_fragments: list = spec_field("floats", [1.0, 1e9], length=2, lo=0.0, unit="[min, max] pieces after test_frames frames")
     test_frames: int = spec_field("int", 0, lo=0, hi=100000, unit="frames the test suite runs (0 = frames)")
     elastic_damping: float = spec_field("float", 0.0, lo=0.0, hi=1e6, unit="1/s (elastic effect)")
 
@@ -339,3 +338,35 @@ class SceneConfig:
 
     def material(self, name: str) -> MaterialConfig:
         return next(m for m in self.materials if m.name == name)
+
+
+SECTIONS = [
+    ("[scene]", SceneSection),
+    ("[[materials]]", MaterialConfig),
+    ("kernel = { ... } (in a material)", KernelConfig),
+    ("[[objects]]", ObjectConfig),
+    ("[[colliders]]", ColliderConfig),
+    ("[camera]", CameraConfig),
+    ("[[cracks]] (scripted cracks, teaching scenes)", ScriptedCrackConfig),
+]
+
+
+def schema_markdown() -> str:
+    """The scene schema as Markdown tables (docs/scenes.md embeds this; a test keeps them equal)."""
+    lines = []
+    for title, cls in SECTIONS:
+        lines += [f"### {title}", "", "| key | default | allowed |", "|---|---|---|"]
+        for f in fields(cls):
+            if "spec" not in f.metadata:
+                continue
+            spec = f.metadata["spec"]
+            if f.default is not MISSING:
+                default = repr(f.default)
+            elif f.default_factory is not MISSING:
+                value = f.default_factory()
+                default = "see below" if hasattr(value, "__dataclass_fields__") else repr(value)
+            else:
+                default = "required"
+            lines.append(f"| `{f.name}` | {default} | {spec.allowed()} |")
+        lines.append("")
+    return "\n".join(lines)

@@ -94,7 +94,7 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
         from render.session import HeadlessSession
 
         renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video)
-        print(f"renderer: {renderer.description}", file=sys.stderr)
+        print(renderer.description, file=sys.stderr)
     t0 = time.perf_counter()
     done = 0
     interrupted = False
