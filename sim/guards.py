@@ -1,33 +1,337 @@
-"""Guards that turn a failing simulation into a clear error before anything bad is written.
+"""Runtime guards: a failing simulation becomes a clear error before anything bad is written.
 
-`check_state(world)` runs after every frame: non-finite state raises `SimulationError` naming the
-field, the body or particle and the frame (DESIGN.md promise 2: hard cases stay stable, and when
-they do not, the user learns where and when).
+DESIGN.md promise 2: hard cases stay numerically stable, and when they do not, the user learns
+what, where and when. Every guard raises a `SandboxError` subclass whose message names the field,
+the entity (body, boundary sphere, particle), its index and the step; the envelope the guards
+protect is written down in docs/robustness.md (with the test behind each line).
+
+State guards (cheap: one download of the body table, a few numpy reductions):
+- `check_state(world, when="end")`: runs after every frame (World.step_frame calls it). Rigid
+  bodies (body_v, body_w, body_x, body_q finite, |q| = 1), the elastic particles (particle_x,
+  particle_v finite) and, after a fracture event, the host-side particles (volume > 0, mass > 0,
+  finite centroids, finite positive-definite kernel tensors). With `when="start"` the same check
+  names the values as changed *between* frames (a caller or a viewer wrote them).
+- `install_step_guard(world)`: wraps the world's rigid and elastic `step` so that the state is
+  checked before and after every rigid step: a value that turns non-finite is named with the
+  exact rigid step (and substep of the frame) in which it appeared.
+
+Input and set-up guards:
+- `check_time_step(world_or_effect)`: the elastic time step must not exceed the stable step of
+  sph.elastic (dt <= cfl h_min / c_max, and <= 0.7 * 2 / omega_max when the operator was measured);
+  the rigid step must lie in (0, 0.1] s. Raises `TimeStepError` (a ConfigError) naming the key.
+- `check_scene(cfg)`: what the scene schema cannot see alone: initial speeds above the rigid
+  solver's speed clamp (they would be silently cut to `max_speed_mps`), a rigid step above 0.1 s.
+- `check_surface_overlap(vertices, faces, source)`: a closed, consistently wound surface can
+  still overlap itself (two intersecting shells in one file, a fold); the generalised winding
+  number just inside and just outside sampled faces must be 1 and 0.
+
+Also `state_hash(world)`: SHA-256 of the bodies' poses and velocities and of the particle table,
+for determinism checks (stats.json can carry it).
 """
 
 from __future__ import annotations
 
+import hashlib
+import math
+import weakref
+
 import numpy as np
 
-from sim.errors import SandboxError
+from sim.errors import ConfigError, MeshError, SandboxError
+
+QUAT_NORM_TOL = 1e-6  # -: |q| may differ from 1 by this much (renormalised every substep)
+STABLE_DT_RTOL = 1e-12  # -: relative slack on the stable elastic step (round-off of dt_frame / steps)
+RIGID_DT_MAX = 0.1  # s: largest rigid step RigidWorld.step accepts
+RIGID_FIELD_ORDER = ("body_v", "body_w", "body_x", "body_q")  # velocities first: positions follow them
 
 
 class SimulationError(SandboxError):
-    """The state became non-finite or unphysical; names the field, the entity and the step."""
+    """The state became non-finite or unphysical; names the field, the entity and the step.
+
+    Attributes: field (the first bad field, e.g. 'body_v'), fields (every bad field), entity
+    ('body', 'particle'), index (the first bad entity), frame, step (rigid or elastic step count).
+    """
+
+    def __init__(self, message: str, field: str = "", fields: tuple = (), entity: str = "",
+                 index: int = -1, frame: int = -1, step: int = -1) -> None:
+        self.field = field
+        self.fields = tuple(fields) or ((field,) if field else ())
+        self.entity = entity
+        self.index = index
+        self.frame = frame
+        self.step = step
+        super().__init__(message)
 
 
-def check_state(world) -> None:
+class TimeStepError(ConfigError):
+    """A time step above the stable one: names the key, the value and the stable bound."""
+
+
+# ---------------------------------------------------------------------------------------- state
+def _bad_rows(a: np.ndarray, alive: np.ndarray | None = None) -> np.ndarray:
+    a = np.asarray(a)
+    bad = ~np.all(np.isfinite(a.reshape(len(a), -1)), axis=1)
+    if alive is not None:
+        bad &= alive
+    return np.flatnonzero(bad)
+
+
+def _report(kind: str, bad: dict[str, np.ndarray], where: str, frame: int, step: int, order) -> None:
+    """Raise one SimulationError for every bad field of `kind` (fields in `order`)."""
+    names = [f for f in order if f in bad and len(bad[f])]
+    if not names:
+        return
+    first = names[0]
+    index = int(bad[first][0])
+    per_field = "; ".join(
+        f"{f} of {kind} {', '.join(map(str, bad[f][:5].tolist()))}{' ...' if len(bad[f]) > 5 else ''}"
+        f" ({len(bad[f])} {kind}{'s' if len(bad[f]) != 1 else ''})"
+        for f in names
+    )
+    raise SimulationError(
+        f"non-finite state {where} (frame {frame}, step {step}): {per_field}",
+        field=first, fields=tuple(names), entity=kind, index=index, frame=frame, step=step,
+    )
+
+
+def check_rigid(rigid, frame: int = -1, where: str = "") -> None:
+    """Body poses and velocities of a RigidWorld are finite and the quaternions unit (alive bodies)."""
+    st = rigid.body_state()
+    if len(st.alive) == 0:
+        return
+    bad = {f"body_{k}": _bad_rows(getattr(st, k), st.alive) for k in ("v", "w", "x", "q")}
+    qn = np.linalg.norm(st.q, axis=1)
+    off = np.flatnonzero(st.alive & np.isfinite(qn) & (np.abs(qn - 1.0) > QUAT_NORM_TOL))
+    step = int(rigid.step_count)
+    _report("body", bad, where or "after the rigid step", frame, step, RIGID_FIELD_ORDER)
+    if off.size:
+        raise SimulationError(
+            f"body_q of body {off[0]} is not a unit quaternion (|q| = {qn[off[0]]:.9g}, {off.size} bodies) "
+            f"{where} (frame {frame}, step {step})",
+            field="body_q", entity="body", index=int(off[0]), frame=frame, step=step,
+        )
+
+
+def check_elastic(effect, frame: int = -1, where: str = "") -> None:
+    """Positions and velocities of the elastic particles are finite."""
+    step = int(round(effect.time / effect.dt)) if effect.dt > 0 else -1
+    bad = {"particle_v": _bad_rows(effect.velocities()), "particle_x": _bad_rows(effect.positions())}
+    _report("particle", bad, where or "after the elastic step", frame, step, ("particle_v", "particle_x"))
+
+
+def check_particles(world, frame: int = -1, where: str = "") -> None:
+    """Host-side tet particles (after a fracture event): alive ones have finite geometry, positive
+    volume and mass; kernel tensors are finite and positive definite."""
+    ps = world.particles
+    alive = ps.alive
+    bad = {
+        "particle_centroid": _bad_rows(ps.centroid, alive),
+        "particle_rest_verts": _bad_rows(ps.rest_verts, alive),
+        "particle_volume": np.flatnonzero(alive & ~(np.isfinite(ps.volume) & (ps.volume > 0.0))),
+        "particle_mass": np.flatnonzero(alive & ~(np.isfinite(ps.mass) & (ps.mass > 0.0))),
+    }
+    G = getattr(world, "kernel_G", None)
+    if G is not None and len(G) == len(ps):
+        fin = np.all(np.isfinite(G.reshape(len(G), -1)), axis=1)
+        pd = np.zeros(len(G), dtype=bool)
+        sel = np.flatnonzero(alive & fin)
+        if sel.size:
+            pd[sel] = np.linalg.eigvalsh(0.5 * (G[sel] + np.swapaxes(G[sel], 1, 2)))[:, 0] > 0.0
+        bad["kernel_G"] = np.flatnonzero(alive & ~pd)
+    order = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
+    _report("particle", bad, where or "in the particle table", frame, -1, order)
+
+
+_checked_versions: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # world -> surface_version checked
+
+
+def check_state(world, when: str = "end") -> None:
+    """The whole state of a World (see the module docstring). `when`: 'end' (after the frame's
+    steps, the default) or 'start' (before them: values changed between frames)."""
+    frame = int(world.frame)
+    where = "at the end of the frame" if when == "end" else "at the start of the frame (changed between frames)"
+    if "rigid" in world.stages:
+        check_rigid(world.rigid, frame, where)
+    if "elastic" in world.stages:
+        check_elastic(world.elastic, frame, where)
+    version = int(getattr(world, "surface_version", 0))
+    if _checked_versions.get(world) != version:
+        check_particles(world, frame, where)
+        _checked_versions[world] = version
+
+
+def install_step_guard(world) -> None:
+    """Check the state before and after every rigid and elastic step of `world` (instance wrappers):
+    a non-finite value is named with the rigid step, and the substep of the frame, where it appeared."""
+    if getattr(world, "_step_guard", False):
+        return
+    world._step_guard = True
+    if "rigid" in world.stages:
+        rigid = world.rigid
+        inner = rigid.step
+        substeps = int(world.cfg.scene.substeps)
+
+        def rigid_step(dt: float) -> None:
+            sub = rigid.step_count % substeps
+            check_rigid(rigid, world.frame, f"before rigid step {rigid.step_count} (substep {sub} of frame "
+                                            f"{world.frame}; changed since the previous step)")
+            inner(dt)
+            check_rigid(rigid, world.frame, f"in rigid step {rigid.step_count - 1} (substep {sub} of frame "
+                                            f"{world.frame})")
+
+        rigid.step = rigid_step
+    if "elastic" in world.stages:
+        eff = world.elastic
+        inner_e = eff.step
+
+        def elastic_step(nsteps: int = 1) -> None:
+            check_elastic(eff, world.frame, "before the frame's elastic steps (changed between frames)")
+            for _ in range(int(nsteps)):
+                inner_e(1)
+                check_elastic(eff, world.frame, "in the elastic step")
+
+        eff.step = elastic_step
+
+
+# ------------------------------------------------------------------------------------ time step
+def stable_elastic_dt(effect) -> float:
+    """The largest stable step (s) of an ElasticEffect: the CFL rule of sph.elastic over the materials
+    its particles use, and 0.7 * 2 / omega_max when the effect measured its operator."""
+    from sph.elastic import DT_OPERATOR_SAFETY, stable_time_step
+
+    try:
+        used = sorted(set(effect.sph.particle_mat.to_numpy().tolist()))
+        mats = [effect.materials[k] for k in used]
+    except AttributeError:
+        mats = list(effect.materials)
+    dt = stable_time_step(effect._G0, mats, effect.cfl)
+    if getattr(effect, "omega_max", None):
+        dt = min(dt, DT_OPERATOR_SAFETY * 2.0 / effect.omega_max)
+    return float(dt)
+
+
+def check_time_step(target, dt: float | None = None) -> dict:
+    """Refuse time steps above the stable ones; returns {'elastic': stable dt, 'rigid': dt} (s).
+
+    target: a World (checks its elastic step `world.elastic.dt` and its rigid step
+    1 / (fps * substeps)) or an ElasticEffect (checks `dt`, default its own `dt`).
+    """
+    out: dict = {}
+    effect = target
+    if hasattr(target, "stages"):
+        world = target
+        effect = world.elastic if "elastic" in world.stages else None
+        if "rigid" in world.stages:
+            sc = world.cfg.scene
+            rdt = world.dt_frame / sc.substeps
+            if not (math.isfinite(rdt) and 0.0 < rdt <= RIGID_DT_MAX):
+                raise TimeStepError("scene.substeps", sc.substeps,
+                                    f"a rigid step 1 / (fps x substeps) <= {RIGID_DT_MAX} s (is {rdt:.6g} s)",
+                                    world.cfg.source)
+            out["rigid"] = rdt
+    if effect is not None:
+        stable = stable_elastic_dt(effect)
+        value = float(effect.dt if dt is None else dt)
+        if not (math.isfinite(value) and 0.0 < value <= stable * (1.0 + STABLE_DT_RTOL)):
+            from sph.kernel import shortest_axis_np
+            from sph.materials import wave_speed_max
+
+            h_min = float(np.min(shortest_axis_np(effect._G0)))
+            c_max = max(wave_speed_max(m) for m in effect.materials)
+            raise TimeStepError(
+                "elastic.dt", value,
+                f"0 < dt <= the stable step {stable:.6g} s (cfl {effect.cfl} x shortest kernel axis "
+                f"{h_min:.4g} m / wave speed {c_max:.5g} m/s, and 0.7 x 2 / omega_max); "
+                f"{value / stable:.3g} x stable",
+            )
+        out["elastic"] = stable
+    return out
+
+
+# ---------------------------------------------------------------------------------------- scene
+def check_scene(cfg, max_speed_mps: float | None = None) -> None:
+    """Scene values the schema accepts but the solvers would silently change (see module doc)."""
+    from rigid.world import RigidConfig
+
+    vmax = RigidConfig().max_speed_mps if max_speed_mps is None else float(max_speed_mps)
+    if cfg.has("rigid"):
+        rdt = 1.0 / (cfg.scene.fps * cfg.scene.substeps)
+        if rdt > RIGID_DT_MAX:
+            raise TimeStepError("scene.substeps", cfg.scene.substeps,
+                                f">= {math.ceil(1.0 / (RIGID_DT_MAX * cfg.scene.fps))} at fps {cfg.scene.fps:g}: "
+                                f"a rigid step 1 / (fps x substeps) <= {RIGID_DT_MAX} s", cfg.source)
+        for i, o in enumerate(cfg.objects):
+            speed = float(np.linalg.norm(o.velocity))
+            if speed > vmax:
+                raise ConfigError(f"objects[{i}].velocity", o.velocity,
+                                  f"a speed <= {vmax:g} m/s (the rigid solver's speed clamp; is {speed:.6g} m/s)",
+                                  cfg.source)
+
+
+# ---------------------------------------------------------------------------------------- meshes
+def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, chunk: int = 64) -> np.ndarray:
+    """Generalised winding number of a triangle surface at points (P, 3): the sum of the signed solid
+    angles of the triangles (van Oosterom and Strackee 1983) over 4 pi. 1 inside a closed outward
+    surface, 0 outside, 2 where two shells overlap, -1 inside an inverted one."""
+    tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]  # (F, 3, 3)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    out = np.empty(len(pts))
+    for s in range(0, len(pts), chunk):
+        d = tri[None] - pts[s:s + chunk, None, None, :]  # (p, F, 3, 3)
+        a, b, c = d[..., 0, :], d[..., 1, :], d[..., 2, :]
+        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+        num = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc + np.einsum("pfi,pfi->pf", b, c) * la
+               + np.einsum("pfi,pfi->pf", c, a) * lb)
+        out[s:s + chunk] = 2.0 * np.arctan2(num, den).sum(1) / (4.0 * np.pi)
+    return out
+
+
+def check_surface_overlap(vertices: np.ndarray, faces: np.ndarray, source: str, max_faces: int = 256,
+                          offset_rel: float = 1e-4) -> None:
+    """Refuse a surface whose winding number just inside (outside) sampled faces is not 1 (0).
+
+    Detects overlapping shells, folds and pockets whose volume is counted twice or negatively
+    (the mesh validation of geometry.mesh_io checks closure and winding, not self-intersection).
+    Up to `max_faces` faces are probed (a fixed stride, deterministic), `offset_rel` x the bounding
+    box diagonal off their centroids. Touching without overlap is not detected.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    tri = v[f]
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(nrm, axis=1)
+    probe = np.flatnonzero(area2 > 0.0)
+    if probe.size > max_faces:
+        probe = probe[np.linspace(0, probe.size - 1, max_faces).astype(np.int64)]
+    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
+    delta = offset_rel * diag
+    c = tri[probe].mean(1)
+    n = nrm[probe] / area2[probe, None]
+    w_in = winding_numbers(v, f, c - delta * n)
+    w_out = winding_numbers(v, f, c + delta * n)
+    bad = np.flatnonzero((np.abs(w_in - 1.0) > 0.5) | (np.abs(w_out) > 0.5))
+    if bad.size:
+        k = int(bad[0])
+        raise MeshError(
+            source, "self-intersecting surface (overlapping or folded shells)",
+            f"winding number {w_in[k]:.3g} inside and {w_out[k]:.3g} outside face {int(probe[k])}, "
+            f"expected 1 and 0; {bad.size} of {probe.size} probed faces",
+        )
+
+
+# ----------------------------------------------------------------------------------- determinism
+def state_hash(world) -> str:
+    """SHA-256 (hex) of the bodies' poses and velocities and of the particle table of a World."""
+    h = hashlib.sha256()
+    ps = world.particles
+    for a in (ps.alive, ps.body, ps.centroid[ps.alive], ps.links):
+        h.update(np.ascontiguousarray(a).tobytes())
     if "rigid" in world.stages:
         st = world.rigid.body_state()
-        for name in ("x", "q", "v", "w"):
-            arr = getattr(st, name)
-            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1) & st.alive)
-            if bad.size:
-                raise SimulationError(
-                    f"non-finite body_{name} of body {bad[0]} ({bad.size} bodies) at frame {world.frame}"
-                )
+        for a in (st.alive, st.x[st.alive], st.q[st.alive], st.v[st.alive], st.w[st.alive]):
+            h.update(np.ascontiguousarray(a).tobytes())
     if "elastic" in world.stages:
-        x = world.elastic.positions()
-        bad = np.flatnonzero(~np.all(np.isfinite(x), axis=1))
-        if bad.size:
-            raise SimulationError(f"non-finite particle_x of particle {bad[0]} at frame {world.frame}")
+        h.update(np.ascontiguousarray(world.elastic.positions()).tobytes())
+        h.update(np.ascontiguousarray(world.elastic.velocities()).tobytes())
+    return h.hexdigest()

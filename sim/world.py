@@ -230,6 +230,7 @@ class World:
         self.rigid = RigidWorld(
             capacity_bodies=max(16, 4 * len(self._spawn)),
             capacity_spheres=n_sph_est,
+            capacity_contacts=8 * n_sph_est,  # fragments resting against each other touch at many spheres
             capacity_colliders=max(1, len(self.cfg.colliders)),
             config=RigidConfig(gravity=tuple(sc.gravity)),
         )
