@@ -174,6 +174,7 @@ def fracture_body(world: World, body: int, impact: dict) -> dict | None:
     t0 = time.perf_counter()
     result = analyse(world, body, impact)
     t1 = time.perf_counter()
+    world.last_analysis = (body, result)  # the viewer colours the analysed particles by it
     world.analyses.append(dict(frame=world.frame, body=body, speed=round(impact["speed"], 6),
                                cracks=len(result.cracks), stress_analysis_ms=round((t1 - t0) * 1e3, 3)))
     if not result.cracks:

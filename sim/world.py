@@ -130,6 +130,7 @@ class World:
         self.dt_frame = 1.0 / cfg.scene.fps
         self.events: list[dict] = []  # one record per fracture event (stats.json)
         self.analyses: list[dict] = []  # one record per crack analysis, cracked or not
+        self.last_analysis = None  # (body, sph.cracks.ImpactAnalysis) of the latest analysis
         self.debris_mass = 0.0  # kg: shattered particles taken out of the simulation (no 'debris')
         self.surface_version = 0  # increases whenever fragment surfaces change
         t0 = time.perf_counter()
