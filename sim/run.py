@@ -46,11 +46,20 @@ def versions() -> dict:
                 numpy=np.__version__, scipy=scipy.__version__, platform=platform.platform())
 
 
+def _without_timings(obj):
+    """A copy of `obj` without the keys that hold wall-clock times (names ending in `_ms`)."""
+    if isinstance(obj, dict):
+        return {k: _without_timings(v) for k, v in obj.items() if not k.endswith("_ms")}
+    if isinstance(obj, list):
+        return [_without_timings(v) for v in obj]
+    return obj
+
+
 def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: bool = False) -> dict:
     """stats.json: everything but the `timings` section is reproducible for a given scene and seed."""
     rt = runtime()
     counts = world.counts()
-    events = [{k: v for k, v in e.items() if not k.endswith("_ms")} for e in world.events]
+    events = _without_timings(world.events)
     event_times = [{k: v for k, v in e.items() if k.endswith("_ms")} for e in world.events]
     cfg: SceneConfig = world.cfg
     return {

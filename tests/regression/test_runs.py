@@ -1,0 +1,48 @@
+"""Headless runs: outputs, reproducibility, and the default scene breaking the pot."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from scenes.loader import load_scene
+from sim.run import RunOptions, run
+
+
+def stats_without_timings(path):
+    data = json.loads(path.read_text())
+    data.pop("timings")
+    return data
+
+
+def test_same_run_twice_gives_identical_statistics(tmp_path):
+    cfg = load_scene("glass_r3")
+    for k in ("a", "b"):
+        run(cfg, RunOptions(out=tmp_path / k, frames=6, renderer="none", video="none", progress=False))
+    a = stats_without_timings(tmp_path / "a" / "stats.json")
+    b = stats_without_timings(tmp_path / "b" / "stats.json")
+    assert a["events"], "the ball must break the pane within 6 frames"
+    assert a == b
+
+
+def test_default_scene_breaks_the_pot_and_writes_its_files(tmp_path):
+    cfg = load_scene("pot")
+    out = tmp_path / "pot"
+    stats = run(cfg, RunOptions(out=out, frames=cfg.scene.test_frames, renderer="raster", video="gif",
+                                width=160, height=120, progress=False))
+    assert stats["table1"]["fragments"] > 1
+    assert stats["mass"]["error_kg"] == pytest.approx(0.0, abs=1e-12)
+    assert (out / "stats.json").exists() and (out / "pot.gif").exists()
+    assert len(list((out / "frames").glob("frame_*.png"))) == cfg.scene.test_frames
+    ev = stats["timings"]["table2_events"][0]
+    assert ev["stress_analysis_ms"] > 0 and ev["particle_subdivision_ms"] > 0 and ev["crack_generation_ms"] > 0
+
+
+def test_existing_output_folder_is_not_overwritten(tmp_path):
+    from sim.errors import ConfigError
+
+    (tmp_path / "keep.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="--overwrite"):
+        run(load_scene("rigid_pile"), RunOptions(out=tmp_path, frames=1, renderer="none", video="none"))
+    assert (tmp_path / "keep.txt").read_text() == "mine"
