@@ -46,3 +46,22 @@ def test_existing_output_folder_is_not_overwritten(tmp_path):
     with pytest.raises(ConfigError, match="--overwrite"):
         run(load_scene("rigid_pile"), RunOptions(out=tmp_path, frames=1, renderer="none", video="none"))
     assert (tmp_path / "keep.txt").read_text() == "mine"
+
+
+def test_fragment_meshes_and_vtu_series(tmp_path):
+    import meshio
+    import trimesh
+
+    cfg = load_scene("tet_cut_31")
+    out = tmp_path / "t"
+    run(cfg, RunOptions(out=out, frames=3, renderer="none", video="none", meshes="obj", vtu=True, progress=False))
+    meshes = sorted((out / "meshes").glob("frame_*.obj"))
+    assert len(meshes) == 3
+    # after the scripted cut (frame 1) the two closed pieces hold the tet's volume
+    tm = trimesh.load(meshes[-1], process=False)
+    edge = 0.1
+    assert abs(tm.volume) == pytest.approx(edge**3 / (6 * 2**0.5), rel=1e-6)
+    series = sorted((out / "vtu").glob("particles_*.vtu"))
+    assert len(series) == 3 and (out / "vtu" / "particles.pvd").exists()
+    last = meshio.read(series[-1])
+    assert len(last.points) == 14 and set(last.point_data["kind"]) == {1}
