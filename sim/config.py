@@ -286,7 +286,8 @@ class SceneSection:
     gravity: list = spec_field("vec3", [0.0, -9.81, 0.0], lo=-1e3, hi=1e3, unit="m/s^2")
     fracture_mode: str = spec_field("str", "auto", choices=("auto", "basic", "subdivision"))
     impact_threshold: float = spec_field("float", 0.5, lo=0.0, hi=1e3, unit="m/s relative normal speed")
-    expected_fragments: list = spec_field("floats", [1.0, 1e9], length=2, lo=0.0, unit="[min, max] pieces after test_frames frames")
+    expected_fragments: list = spec_field("floats", [1.0, 1e9], length=2, lo=0.0,
+                                          unit="[min, max] pieces after test_frames")
     test_frames: int = spec_field("int", 0, lo=0, hi=100000, unit="frames the test suite runs (0 = frames)")
     elastic_damping: float = spec_field("float", 0.0, lo=0.0, hi=1e6, unit="1/s (elastic effect)")
 
