@@ -8,29 +8,20 @@ file.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from geometry.surface import SurfaceMesh
 from sim.errors import ConfigError
+from sim.output import atomic_write_bytes
 
 FORMATS = ("obj", "ply")
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_bytes(path, data)
 
 
 def _check(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import taichi as ti
 
+from rigid.kernels import q_to_mat
 from sim.errors import ConfigError
 from sim.runtime import numpy_float
 
@@ -106,26 +107,12 @@ def _colors_for(part: MeshPart, where: str) -> np.ndarray:
 
 
 @ti.func
-def quat_to_mat3(q):
-    """Rotation matrix of a w-x-y-z quaternion (normalised here, so a drifting q stays a rotation)."""
-    q = q / q.norm()
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return ti.Matrix(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-@ti.func
 def _corner_world(c, n_body, corner_ref: ti.template(), corner_body: ti.template(), pose_x: ti.template(),
                   pose_q: ti.template(), pose_ref_com: ti.template()):
     b = corner_body[c]
     x = corner_ref[c]
     if b >= 0 and b < n_body:
-        x = quat_to_mat3(pose_q[b]) @ (x - pose_ref_com[b]) + pose_x[b]
+        x = q_to_mat(pose_q[b] / pose_q[b].norm()) @ (x - pose_ref_com[b]) + pose_x[b]
     return x
 
 
