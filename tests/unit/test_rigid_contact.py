@@ -252,7 +252,9 @@ def test_runs_are_bitwise_deterministic_and_growth_changes_nothing(fresh):
     small = RigidWorld(capacity_bodies=1, capacity_spheres=8, capacity_colliders=1, capacity_contacts=4)
     try:
         h3 = _run_scene(small)
-        assert small.grow_count >= 3
+        # stores have power-of-two capacities of at least 16 (rigid/store.py), so the spheres and
+        # contacts outgrow this world while the six bodies fit
+        assert small.grow_count >= 2
         assert small.capacity["bodies"] >= 6
     finally:
         small.release()
