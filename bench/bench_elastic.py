@@ -39,22 +39,29 @@ def w_eb(x: float) -> float:
     return Q_LOAD * x**2 * (6 * L**2 - 4 * L * x + x**2) / (24 * E * I_SEC)
 
 
-def build(nc: int, damping: float):
-    from sph.elastic import ElasticEffect
-    from sph.materials import Material, stiffness_isotropic
-
+def beam_particles(nc: int):
+    """(x0, d, tip mask, x_t): cell-centred lattice of the beam with NFIX fixed layers at x < 0."""
     d = H / nc
     nx = int(round(L / d))
     xs = (np.arange(-NFIX, nx) + 0.5) * d
     ys = (np.arange(nc) + 0.5) * d - H / 2
     X, Y, Z = np.meshgrid(xs, ys, ys, indexing="ij")
     x0 = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
-    eff = ElasticEffect(
-        x0, np.full(len(x0), d**3), np.eye(3) / (HF * d), Material("beam", RHO, stiffness_isotropic(E, NU)),
-        fixed=x0[:, 0] < 0.0, gravity=(0.0, 0.0, -G), damping=damping,
-    )
     tip = np.abs(x0[:, 0] - xs[-1]) < 1e-9
-    return eff, x0, tip, float(xs[-1])
+    return x0, d, tip, float(xs[-1])
+
+
+def build_beam(nc: int, damping: float = 0.0, order: int = 2, support: float = HF):
+    """(effect, x0, tip mask, x_t): the beam's elastic effect, kernel support = `support` spacings."""
+    from sph.elastic import ElasticEffect
+    from sph.materials import Material, stiffness_isotropic
+
+    x0, d, tip, xt = beam_particles(nc)
+    eff = ElasticEffect(
+        x0, np.full(len(x0), d**3), np.eye(3) / (support * d), Material("beam", RHO, stiffness_isotropic(E, NU)),
+        fixed=x0[:, 0] < 0.0, gravity=(0.0, 0.0, -G), damping=damping, order=order,
+    )
+    return eff, x0, tip, xt
 
 
 def run(nc: int, settle: bool) -> dict:
@@ -62,7 +69,7 @@ def run(nc: int, settle: bool) -> dict:
 
     from sph.elastic import damping_for_ratio
 
-    eff, x0, tip, xt = build(nc, damping_for_ratio(0.7, OMEGA1))
+    eff, x0, tip, xt = build_beam(nc, damping_for_ratio(0.7, OMEGA1))
     n = eff.n
     eff.step(5)  # compile and warm up
     ti.sync()

@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from bench import bench_elastic  # noqa: E402
 from bench.bench_elastic import NFIX, NU, OMEGA1, RHO, E, G, H, L, w_eb  # noqa: E402
 from bench.study_common import clock, fmt, md_table, pareto_mask, plot_pareto  # noqa: E402
 
@@ -36,29 +37,8 @@ QUICK = [(2, 3)]  # one full settle (about 10 s here); the full run adds resolut
 PEERS_BECKER = "unstable, blows up within 0.07-0.33 s (1,325-34,425 particles, 2,100-2,550 ns per particle-step)"
 
 
-def beam_particles(nc: int):
-    """(x0, d, tip mask, x_t): lattice of the beam with NFIX fixed layers at x < 0."""
-    d = H / nc
-    nx = int(round(L / d))
-    xs = (np.arange(-NFIX, nx) + 0.5) * d
-    ys = (np.arange(nc) + 0.5) * d - H / 2
-    X, Y, Z = np.meshgrid(xs, ys, ys, indexing="ij")
-    x0 = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
-    tip = np.abs(x0[:, 0] - xs[-1]) < 1e-9
-    return x0, d, tip, float(xs[-1])
-
-
 def build_beam(nc: int, order: int, damping: float):
-    from sph.elastic import ElasticEffect
-    from sph.materials import Material, stiffness_isotropic
-
-    x0, d, tip, xt = beam_particles(nc)
-    eff = ElasticEffect(
-        x0, np.full(len(x0), d**3), np.eye(3) / (H_FACTOR[order] * d),
-        Material("beam", RHO, stiffness_isotropic(E, NU)), fixed=x0[:, 0] < 0.0, gravity=(0.0, 0.0, -G),
-        damping=damping, order=order,
-    )
-    return eff, x0, tip, xt
+    return bench_elastic.build_beam(nc, damping=damping, order=order, support=H_FACTOR[order])
 
 
 def run_case(nc: int, order: int) -> dict:

@@ -15,37 +15,10 @@ import math
 import numpy as np
 import pytest
 
-from sph.elastic import ElasticEffect, damping_for_ratio
-from sph.materials import Material, stiffness_isotropic
+from bench.bench_elastic import OMEGA1, L, build_beam, w_eb
+from sph.elastic import damping_for_ratio
 
-L, H, E, NU, RHO, G = 1.0, 0.1, 100e6, 0.3, 1000.0, 9.81
-NFIX = 3  # layers of fixed particles
-HF = 2.2  # kernel support / spacing
-I_SEC = H**4 / 12.0
-Q_LOAD = RHO * H * H * G  # N/m
-OMEGA1 = 1.875**2 * math.sqrt(E * I_SEC / (RHO * H * H * L**4))
 T1 = 2.0 * math.pi / OMEGA1
-
-
-def w_eb(x: float) -> float:
-    return Q_LOAD * x**2 * (6 * L**2 - 4 * L * x + x**2) / (24 * E * I_SEC)
-
-
-def build_beam(nc: int, damping: float = 0.0) -> tuple[ElasticEffect, np.ndarray, np.ndarray, float]:
-    d = H / nc
-    nx = int(round(L / d))
-    xs = (np.arange(-NFIX, nx) + 0.5) * d
-    ys = (np.arange(nc) + 0.5) * d - H / 2
-    X, Y, Z = np.meshgrid(xs, ys, ys, indexing="ij")
-    x0 = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
-    fixed = x0[:, 0] < 0.0
-    mat = Material("beam", RHO, stiffness_isotropic(E, NU))
-    eff = ElasticEffect(
-        x0, np.full(len(x0), d**3), np.eye(3) / (HF * d), mat, fixed=fixed, gravity=(0.0, 0.0, -G),
-        damping=damping,
-    )
-    tip = np.abs(x0[:, 0] - xs[-1]) < 1e-9
-    return eff, x0, tip, float(xs[-1])
 
 
 def settle(nc: int, t_end: float = 0.25) -> tuple[float, float, float]:
