@@ -76,7 +76,8 @@ def _bad_rows(a: np.ndarray, alive: np.ndarray | None = None) -> np.ndarray:
     return np.flatnonzero(bad)
 
 
-def _report(kind: str, bad: dict[str, np.ndarray], where: str, frame: int, step: int, order) -> None:
+def _report(kind: str, bad: dict[str, np.ndarray], where: str, frame: int, step: int, order,
+            what: str = "non-finite") -> None:
     """Raise one SimulationError for every bad field of `kind` (fields in `order`)."""
     names = [f for f in order if f in bad and len(bad[f])]
     if not names:
@@ -89,7 +90,7 @@ def _report(kind: str, bad: dict[str, np.ndarray], where: str, frame: int, step:
         for f in names
     )
     raise SimulationError(
-        f"non-finite state {where} (frame {frame}, step {step}): {per_field}",
+        f"{what} state {where} (frame {frame}, step {step}): {per_field}",
         field=first, fields=tuple(names), entity=kind, index=index, frame=frame, step=step,
     )
 
@@ -139,7 +140,8 @@ def check_particles(world, frame: int = -1, where: str = "") -> None:
             pd[sel] = np.linalg.eigvalsh(0.5 * (G[sel] + np.swapaxes(G[sel], 1, 2)))[:, 0] > 0.0
         bad["kernel_G"] = np.flatnonzero(alive & ~pd)
     order = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
-    _report("particle", bad, where or "in the particle table", frame, -1, order)
+    _report("particle", bad, where or "in the particle table", frame, -1, order,
+            what="invalid (non-finite, non-positive or not positive definite)")
 
 
 _checked_versions: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # world -> surface_version checked
@@ -194,9 +196,14 @@ def install_step_guard(world) -> None:
 
 
 # ------------------------------------------------------------------------------------ time step
-def stable_elastic_dt(effect) -> float:
+_measured_omega: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # effect -> omega_max (rad/s)
+
+
+def stable_elastic_dt(effect, measure: bool = True) -> float:
     """The largest stable step (s) of an ElasticEffect: the CFL rule of sph.elastic over the materials
-    its particles use, and 0.7 * 2 / omega_max when the effect measured its operator."""
+    its particles use, and 0.7 * 2 / omega_max of the discrete operator. An effect built without the
+    operator check (explicit dt, or check_operator=False) gets omega_max measured here when `measure`:
+    the rule alone is not stable for order-2 gradients on disordered particles (docs/robustness.md)."""
     from sph.elastic import DT_OPERATOR_SAFETY, stable_time_step
 
     try:
@@ -205,8 +212,12 @@ def stable_elastic_dt(effect) -> float:
     except AttributeError:
         mats = list(effect.materials)
     dt = stable_time_step(effect._G0, mats, effect.cfl)
-    if getattr(effect, "omega_max", None):
-        dt = min(dt, DT_OPERATOR_SAFETY * 2.0 / effect.omega_max)
+    omega = getattr(effect, "omega_max", None) or _measured_omega.get(effect)
+    if omega is None and measure:
+        omega = float(effect.max_frequency())
+        _measured_omega[effect] = omega
+    if omega:
+        dt = min(dt, DT_OPERATOR_SAFETY * 2.0 / omega)
     return float(dt)
 
 
@@ -246,6 +257,39 @@ def check_time_step(target, dt: float | None = None) -> dict:
             )
         out["elastic"] = stable
     return out
+
+
+def check_neighbourhoods(effect, rel_tol: float = 1e-6, source: str = "elastic") -> None:
+    """Refuse an elastic effect with a particle whose neighbours do not span 3D.
+
+    Its deformation gradient F_i = sum_j x_ji (x) d_ij is then rank-deficient: sph.corotated falls
+    back to the plain gradient (order 0), the rotation from the polar decomposition of F_i is
+    arbitrary, and the corotated forces of such a particle grow without bound (tested: a WPCA plate
+    whose kernels are shrunk across the plate). Raises ConfigError naming the particle, its
+    neighbour count and the kernel keys to change. Particles with no neighbour at all count too:
+    they would leave the body as free points.
+    """
+    sph = effect.sph
+    off = sph.nbr_offset.to_numpy().astype(np.int64)
+    idx = sph.nbr_index.to_numpy().astype(np.int64)[: off[-1]]
+    x0 = sph.particle_x0.to_numpy().astype(np.float64)
+    n = len(off) - 1
+    own = np.repeat(np.arange(n), np.diff(off))
+    r = x0[idx] - x0[own]
+    cov = np.zeros((n, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            cov[:, a, b] = np.bincount(own, weights=r[:, a] * r[:, b], minlength=n)
+            cov[:, b, a] = cov[:, a, b]
+    ev = np.linalg.eigvalsh(cov)
+    flat = np.flatnonzero(~(ev[:, 0] > rel_tol * np.maximum(ev[:, 2], 1e-300)))
+    if flat.size:
+        i = int(flat[0])
+        raise ConfigError(
+            f"{source}.kernel", f"particle {i} with {int(off[i + 1] - off[i])} neighbours",
+            f"kernels whose support holds neighbours in three dimensions around every particle ({flat.size} of {n} "
+            "particles have none or only coplanar ones): raise kernel.support or the axis_scale across thin parts",
+        )
 
 
 # ---------------------------------------------------------------------------------------- scene
