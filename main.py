@@ -33,6 +33,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from scenes.loader import load_scene
     from sim.run import RunOptions, run
 
+    if args.frames is not None and args.frames < 1:
+        from sim.errors import ConfigError
+
+        raise ConfigError("--frames", args.frames, "an integer >= 1")
     overrides = list(args.set or [])
     if args.seed is not None:
         overrides.append(f"scene.seed={args.seed}")

@@ -15,6 +15,7 @@ import numpy as np
 
 from geometry.tetmesh import TetMesh, validate_tets
 from sim.errors import ConfigError, MeshError
+from sim.guards import check_surface_overlap
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254, "ft": 0.3048}
 SURFACE_EXTENSIONS = (".obj", ".stl", ".ply", ".glb", ".gltf", ".off")
@@ -111,6 +112,7 @@ def validate_surface(vertices: np.ndarray, faces: np.ndarray, source: str, repai
             raise MeshError(source, "inside-out surface (normals point inwards)", f"volume {mesh.volume:.3g}")
         mesh.invert()
         repairs.append("inverted the inside-out surface")
+    check_surface_overlap(np.asarray(mesh.vertices), np.asarray(mesh.faces), source)
     return SurfaceMesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), source, repairs)
 
 

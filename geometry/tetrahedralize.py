@@ -18,7 +18,7 @@ import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
 from geometry.tetmesh import TetMesh, face_adjacency, quality_report, signed_volumes
-from sim.errors import ConfigError
+from sim.errors import ConfigError, MeshError
 
 JITTER = 0.08  # interior sample jitter, fraction of h
 SURFACE_GAP = 0.45  # interior samples nearer than this x h to the surface are dropped
@@ -157,11 +157,14 @@ def tetrahedralize(
             break
         removed += int(bad.sum())
         tets = tets[~bad]
+    name = getattr(shape, "name", "shape")
+    if len(tets) == 0:
+        raise MeshError(name, f"resolution {h:g} m is too coarse for this object: no tet lies inside it",
+                        "use a resolution below the object's thickness")
     flat = np.flatnonzero(signed_volumes(points[tets]) <= 1e-12 * h**3)
-    if flat.size:  # co-spherical samples the sampler failed to break: a bug, not a user error
-        raise RuntimeError(
-            f"tetrahedralize({getattr(shape, 'name', 'shape')}, {h}): {flat.size} flat interior tets"
-        )
+    if flat.size:  # co-spherical samples left a flat tet inside: refuse rather than build a broken mesh
+        raise MeshError(name, f"resolution {h:g} m leaves {flat.size} flat interior tets (co-spherical samples)",
+                        "use a finer resolution, or another seed")
     used, inverse = np.unique(tets, return_inverse=True)
     verts = points[used]
     tets = inverse.reshape(-1, 4)

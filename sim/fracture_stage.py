@@ -30,8 +30,11 @@ def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray
 
 
 def _local_radius(world: World, body: int, point_world: np.ndarray) -> float:
-    """Radius (m) of the body's boundary sphere nearest the contact: the curvature the collision saw."""
+    """Radius (m) of the body's boundary sphere nearest the contact: the curvature the collision saw.
+    A body split earlier in the same frame has no spheres left: it counts as flat (inf)."""
     spheres = world.rigid.body_spheres(body)
+    if len(spheres) == 0:
+        return float("inf")
     centres = world.rigid.sphere_world()[spheres]
     _, radius, _ = world.rigid.sphere_data()
     k = int(np.argmin(np.linalg.norm(centres - point_world, axis=1)))
@@ -54,9 +57,8 @@ def _other_body(world: World, other: int, point_world: np.ndarray) -> dict:
 
 
 def _body_material(world: World, body: int) -> int:
-    ps = world.particles
-    ids = np.flatnonzero(ps.alive & (ps.body == body))
-    return int(np.bincount(ps.material[ids]).argmax())
+    """The body's main material (recorded when the body was made, so split bodies keep theirs)."""
+    return world.body_material[body]
 
 
 def analysed_particles(world: World, body: int) -> np.ndarray:
@@ -139,6 +141,7 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     history = info.history + list(cracks)
     for nb in new_ids:
         count = int((ps.body == nb).sum())
+        world.body_material[nb] = int(np.bincount(ps.material[ps.body == nb]).argmax())
         world.bodies[nb] = BodyInfo(info.object_index, info.breakable and count >= MIN_BREAKABLE_PARTICLES,
                                     bool(world.rigid.body_is_static(nb)), info.thickness, info.resolution, history,
                                     info.bounds)

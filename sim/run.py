@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.config import SceneConfig
+from sim.guards import state_hash
 from sim.output import atomic_write_json, prepare_output_dir
 from sim.runtime import runtime
 
@@ -76,6 +77,7 @@ def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: boo
         "table1": counts,
         "events": events,
         "mass": world.mass_balance(),
+        "state_hash": state_hash(world),
         "timings": {
             "device": rt.device,
             "versions": versions(),

@@ -24,7 +24,7 @@ from geometry.build import build_object, make_shape
 from geometry.particles import ParticleSet
 from sim.config import SceneConfig
 from sim.errors import ConfigError
-from sim.guards import check_state
+from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
 from sim.timers import StageTimers
 
 
@@ -113,6 +113,7 @@ class World:
     """A scene, built: particles, bodies and the stages its effects name."""
 
     def __init__(self, cfg: SceneConfig, seed: int | None = None) -> None:
+        check_scene(cfg)
         if cfg.has("elastic") and cfg.has("rigid"):
             raise ConfigError(
                 "scene.effects", cfg.scene.effects,
@@ -144,6 +145,7 @@ class World:
             self._build_elastic()
         self.build_seconds = time.perf_counter() - t0
         self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
+        check_time_step(self)
 
     # ------------------------------------------------------------------ building
     def _build_materials(self) -> None:
@@ -243,6 +245,7 @@ class World:
                 self.rigid.add_box_collider(col.center, 0.5 * np.asarray(col.size), restitution=col.restitution,
                                             friction=col.friction)
         self.bodies: dict[int, BodyInfo] = {}
+        self.body_material: dict[int, int] = {}  # main material of every body ever made (split ones too)
         ps = self.particles
         for sp in self._spawn:
             o = self.cfg.objects[sp["object"]]
@@ -256,6 +259,7 @@ class World:
             sp["body"] = bid
             self.bodies[bid] = BodyInfo(sp["object"], o.breakable, o.static, sp["thickness"], o.resolution,
                                         bounds=(c.min(0), c.max(0)))
+            self.body_material[bid] = int(np.bincount(ps.material[ids]).argmax())
 
     def _build_elastic(self) -> None:
         from sph.elastic import ElasticEffect
@@ -273,6 +277,7 @@ class World:
             gravity=tuple(self.cfg.scene.gravity), damping=self.cfg.scene.elastic_damping,
         )
         self.allocations["elastic"] = self.elastic
+        check_neighbourhoods(self.elastic)
         self.elastic_fixed = fixed
         self.elastic_steps_per_frame = max(1, int(math.ceil(self.dt_frame / self.elastic.dt)))
         self.elastic.dt = self.dt_frame / self.elastic_steps_per_frame
@@ -280,6 +285,7 @@ class World:
     # ------------------------------------------------------------------ stepping
     def step_frame(self) -> None:
         """Advance one frame: substeps of the enabled stages, then fracture events."""
+        check_state(self, when="start")
         sc = self.cfg.scene
         impacts: dict[int, dict] = {}
         if self.cfg.cracks and "rigid" in self.stages:
