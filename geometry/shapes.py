@@ -14,6 +14,7 @@ in the (r, y) half-plane revolved about the y axis.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,26 +63,30 @@ def _sample_polyline(poly: np.ndarray, h: float, closed: bool = True) -> np.ndar
     return np.concatenate(pts)
 
 
-class Shape:
+class Shape(ABC):
     """Base of procedural solids; subclasses define the geometry."""
 
     name = "shape"
     regions = 1  # number of material regions
 
+    @abstractmethod
     def sdf(self, points: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+        """(P,) m: signed distance, negative inside."""
 
+    @abstractmethod
     def surface_samples(self, h: float) -> np.ndarray:
-        raise NotImplementedError
+        """(S, 3) m: surface points about h apart, creases sampled exactly."""
 
+    @abstractmethod
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """(lo, hi) m: an axis-aligned box containing the solid."""
 
     def region(self, points: np.ndarray) -> np.ndarray:
         return np.zeros(len(points), dtype=np.int32)
 
+    @abstractmethod
     def reference_mesh(self):
-        raise NotImplementedError
+        """A fine trimesh of the surface (the reference volume in tests)."""
 
     def thickness(self) -> float:
         """Smallest wall thickness (m): the object's thickness B in Eq. 11."""
