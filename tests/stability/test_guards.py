@@ -22,8 +22,9 @@ def _inject_body_v(world, body: int) -> None:
 
 def test_nan_in_body_velocity_stops_the_run_and_keeps_earlier_frames(tmp_path, monkeypatch):
     """sim.run with the raster renderer: NaN written into body_v of one body between frames 2 and 3
-    -> SimulationError naming body_v, the body and frame 3; frames 0-2 are complete PNGs, frame 3 is
-    never written, and stats.json records the 3 finished frames."""
+    -> SimulationError naming body_v, the body and frame 3 (the start-of-frame check, before any step
+    of frame 3); frames 0-2 are complete PNGs, frame 3 is never written, and stats.json records the
+    3 finished frames."""
     from PIL import Image
 
     from sim.run import RunOptions, run
@@ -43,7 +44,8 @@ def test_nan_in_body_velocity_stops_the_run_and_keeps_earlier_frames(tmp_path, m
     err = info.value
     assert err.field == "body_v" and err.entity == "body" and err.index == BALL and err.frame == INJECT_FRAME
     assert f"body_v of body {BALL}" in str(err) and f"frame {INJECT_FRAME}" in str(err)
-    assert err.step == 4 * (INJECT_FRAME + 1)  # the rigid step count when it was caught (4 substeps per frame)
+    assert err.step == 4 * INJECT_FRAME  # caught before frame 3's first step (4 substeps per frame)
+    assert "start of the frame" in str(err)
     frames = sorted((out / "frames").glob("frame_*.png"))
     assert [p.name for p in frames] == [f"frame_{k:05d}.png" for k in range(INJECT_FRAME)]
     for p in frames:
@@ -58,14 +60,22 @@ def test_nan_in_body_velocity_stops_the_run_and_keeps_earlier_frames(tmp_path, m
 
 def test_step_guard_names_the_injected_field_and_the_exact_step():
     """With install_step_guard the value is caught before the next rigid step runs: only body_v is
-    bad (no position has moved through it yet), and the message names that step and substep."""
+    bad (no position has moved through it yet), and the message names that step and substep. The
+    value is written after the start-of-frame check, as a stage inside the frame would."""
     w = World(load_scene("glass_r3"))
     try:
         install_step_guard(w)
         w.step_frame()
         w.step_frame()
         step = w.rigid.step_count
-        _inject_body_v(w, BALL)
+        original = w._scripted_cracks
+        w.cfg.cracks = [None]  # makes step_frame call the hook below after its start-of-frame check
+
+        def inject():
+            w._scripted_cracks = original
+            _inject_body_v(w, BALL)
+
+        w._scripted_cracks = inject
         with pytest.raises(SimulationError) as info:
             w.step_frame()
         err = info.value
