@@ -21,20 +21,6 @@ R_BALL = 0.1
 
 
 @pytest.fixture(scope="module")
-def world(taichi_runtime):
-    w = RigidWorld(capacity_bodies=16, capacity_spheres=512, capacity_colliders=4)
-    yield w
-    w.release()
-
-
-@pytest.fixture
-def fresh(world):
-    world.clear()
-    world.config = RigidConfig()
-    return world
-
-
-@pytest.fixture(scope="module")
 def ball_mass():
     ps = build_particles(ball_tetmesh(R_BALL, 3, 96), 1000.0)
     return mass_properties(ps.rest_verts, ps.mass)

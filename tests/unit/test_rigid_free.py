@@ -8,24 +8,9 @@ import pytest
 
 from rigid.bodies import add_box_body
 from rigid.quat import quat_to_matrix
-from rigid.world import RigidConfig, RigidWorld
 
 G = 9.81
 DT = 1.0 / 240.0
-
-
-@pytest.fixture(scope="module")
-def world(taichi_runtime):
-    w = RigidWorld(capacity_bodies=8, capacity_spheres=64, capacity_colliders=2)
-    yield w
-    w.release()
-
-
-@pytest.fixture
-def fresh(world):
-    world.clear()
-    world.config = RigidConfig()
-    return world
 
 
 def test_free_fall_matches_discrete_and_continuous_formulas(fresh):

@@ -21,17 +21,10 @@ from geometry.particles import build_particles
 from rigid.bodies import add_box_body, ball_tetmesh
 from rigid.mass import mass_properties
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
-from rigid.world import RigidConfig, RigidWorld
+from rigid.world import RigidConfig
 
 G = 9.81
 DT = 1.0 / 240.0
-
-
-@pytest.fixture(scope="module")
-def world(taichi_runtime):
-    w = RigidWorld(capacity_bodies=4, capacity_spheres=32, capacity_colliders=2)
-    yield w
-    w.release()
 
 
 def _pm_space(friction: float = 1.0, elasticity: float = 1.0) -> pymunk.Space:

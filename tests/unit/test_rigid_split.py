@@ -6,21 +6,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from geometry.particles import build_particles
 from rigid.bodies import add_tet_body, box_tetmesh, split_body
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
-from rigid.world import RigidConfig, RigidWorld
+from rigid.world import RigidConfig
 
 DT = 1.0 / 240.0
-
-
-@pytest.fixture(scope="module")
-def world(taichi_runtime):
-    w = RigidWorld(capacity_bodies=8, capacity_spheres=256, capacity_colliders=2)
-    yield w
-    w.release()
 
 
 def _momenta(w, ids):

@@ -7,18 +7,11 @@ import numpy as np
 import pytest
 
 from rigid.bodies import add_box_body
-from rigid.world import RigidConfig, RigidWorld
+from rigid.world import RigidConfig
 
 DT = 1.0 / 240.0
 HALF = 0.1  # m: box half extent
 R_SPHERE = 0.02  # m: corner sphere radius
-
-
-@pytest.fixture(scope="module")
-def world(taichi_runtime):
-    w = RigidWorld(capacity_bodies=16, capacity_spheres=128, capacity_colliders=2)
-    yield w
-    w.release()
 
 
 def _stack(w, n, heavy_top, sleep):
