@@ -245,9 +245,10 @@ def section_meets_region(crack: Crack, verts: np.ndarray, d: np.ndarray | None =
 
 
 def body_mask(ps: ParticleSet, bodies: Bodies) -> np.ndarray:
-    """(N,) bool: alive particles of the given bodies (None = every body)."""
+    """(N,) bool: alive particles of the given bodies (None = every body; body -1, freed debris, is
+    in none)."""
     if bodies is None:
-        return ps.alive.copy()
+        return ps.alive & (ps.body >= 0)
     return ps.alive & np.isin(ps.body, np.asarray(list(np.atleast_1d(bodies)), dtype=np.int64))
 
 

@@ -12,7 +12,7 @@ particle id of each fragment (deterministic).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -101,6 +101,22 @@ def apply_cracks(
     rep = FractureReport(mode=mode)
     done: list[Crack] = list(history or [])
     clock = time.perf_counter
+    debris = np.zeros(0, dtype=np.int64)
+    if shatter:
+        # shatter first: a particle inside r_inner loses all its links anyway, so it is neither
+        # subdivided nor cut (its children would only become more debris); it leaves the bodies
+        # while the cracks are cut and gets its own label at the end
+        t0 = clock()
+        parts = []
+        for crack in cracks:
+            ps, ids = shatter_particles(ps, crack, bodies=bodies)
+            parts.append(ids)
+        debris = np.unique(np.concatenate(parts)) if parts else debris
+        rep.debris = debris
+        debris_body = ps.body[debris].copy()
+        ps = replace(ps, body=ps.body.copy())
+        ps.body[debris] = -1
+        rep.timings["links_s"] += clock() - t0
     for crack in cracks:
         n_removed = 0
         if mode == "subdivision":
@@ -122,14 +138,7 @@ def apply_cracks(
         rep.removed_links.append(n_removed + n)
         done.append(crack)
     if shatter:
-        t0 = clock()
-        debris = []
-        for crack in cracks:
-            ps, ids = shatter_particles(ps, crack, bodies=bodies)
-            debris.append(ids)
-        if debris:
-            rep.debris = np.unique(np.concatenate(debris))
-        rep.timings["links_s"] += clock() - t0
+        ps.body[debris] = debris_body
     if label:
         t0 = clock()
         rep.labels = fragment_labels(ps, bodies)

@@ -18,6 +18,7 @@ from render.select import make_renderer
 from render.writers import PngSequenceWriter, make_writer
 
 FLOOR_COLOR = (0.55, 0.55, 0.58)
+DEBRIS_COLOR = (0.78, 0.80, 0.84)  # shattered particles (the `debris` effect)
 
 
 def world_surfaces(world):
@@ -63,6 +64,8 @@ class SceneView:
                 self._version = w.surface_version
             s = w.rigid._s
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
+            if "debris" in w.stages:
+                self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count, DEBRIS_COLOR)
         else:  # elastic scenes: the particles themselves
             if self._version < 0:
                 self.scene.set_surfaces(self._floor)

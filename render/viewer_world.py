@@ -99,7 +99,8 @@ class Tuning:
 
     @classmethod
     def from_config(cls, cfg) -> Tuning:
-        return cls(cracks=int(cfg.materials[0].cracks) if cfg.materials else 3)
+        n = cfg.materials[0].cracks if cfg.materials else 3
+        return cls(cracks=3 if n == "auto" else int(n))  # the slider sets N; "auto" starts it at 3
 
     def key(self) -> tuple:
         """What a preview depends on (recompute when it changes)."""

@@ -24,7 +24,7 @@ EFFECT_NEEDS = {"subdivision": "fracture", "shatter": "fracture", "debris": "sha
 class Spec:
     """What a configuration value may be."""
 
-    kind: str  # "float", "int", "bool", "str", "strs", "vec3", "floats", "dict", "table", "tables"
+    kind: str  # "float", "int", "int_or_auto", "bool", "str", "strs", "vec3", "floats", "dict", "table", "tables"
     lo: float | None = None
     hi: float | None = None
     lo_open: bool = False
@@ -45,6 +45,7 @@ class Spec:
         what = {
             "float": "a finite number",
             "int": "an integer",
+            "int_or_auto": "\"auto\" or an integer",
             "bool": "true or false",
             "str": "a string",
             "vec3": "3 finite numbers",
@@ -87,7 +88,9 @@ def check_value(value: Any, spec: Spec, path: str, source: str = "") -> Any:
     k = spec.kind
     if k == "float":
         return _number(value, spec, path, source)
-    if k == "int":
+    if k == "int_or_auto" and value == "auto":
+        return value
+    if k in ("int", "int_or_auto"):
         if isinstance(value, bool) or not isinstance(value, int):
             raise ConfigError(path, value, spec.allowed(), source)
         _number(value, spec, path, source)
@@ -198,7 +201,9 @@ class MaterialConfig:
     restitution: float = spec_field("float", 0.2, lo=0.0, hi=1.0, unit="-")
     friction: float = spec_field("float", 0.5, lo=0.0, hi=10.0, unit="-")
     kernel: KernelConfig = spec_field("table", KernelConfig(), table=KernelConfig)
-    cracks: int = spec_field("int", 3, lo=1, hi=32, unit="cracks per event")
+    # N radial cracks per event (Algorithm 1's groups), or "auto": N from the plate's bending vs
+    # fracture energy and the impact speed (sph/structure.py, star_crack_count)
+    cracks: int | str = spec_field("int_or_auto", 3, lo=1, hi=32, unit="cracks per event")
 
     def check(self, path: str, source: str) -> None:
         self.elastic = build_material(self, path, source)  # validates the elastic constants now

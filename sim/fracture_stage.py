@@ -29,6 +29,16 @@ def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray
     return rot.T @ (np.asarray(point) - st.x[body]) + com, rot.T @ np.asarray(normal)
 
 
+def _world_motion(world: World, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World positions (K,3) m and velocities v + w x r (K,3) m/s of reference points of a body."""
+    from rigid.quat import quat_to_matrix
+
+    st = world.rigid.body_state()
+    rot = quat_to_matrix(st.q[body])
+    r = (np.asarray(x_ref) - world.rigid.body_ref_com(body)) @ rot.T
+    return st.x[body] + r, st.v[body] + np.cross(st.w[body], r)
+
+
 def _local_radius(world: World, body: int, point_world: np.ndarray) -> float:
     """Radius (m) of the body's boundary sphere nearest the contact: the curvature the collision saw.
     A body split earlier in the same frame has no spheres left: it counts as flat (inf)."""
@@ -77,29 +87,132 @@ def analysed_particles(world: World, body: int) -> np.ndarray:
     return ids
 
 
+def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float,
+                  striker: np.ndarray | None = None):
+    """The struck surface at a contact (reference frame): (point on it, inward unit normal).
+
+    The rigid solver's contact normal and point are impulse-weighted means over a few collision
+    spheres: the normal can lean far off the surface (18 degrees on a pane struck square-on) and the
+    point lies off the striker's axis and outside the tets, and Algorithm 1 builds its frame on them.
+    The surface's own normal is the area-weighted mean of the outward normals of the body's free tet
+    faces (no link) that face the striker (outward normal against the given normal: a thin wall's
+    far face is as near) and whose centroid lies within `radius` of the nearest such face. The point is
+    the foot on that plane of the striker's centre (`striker`, a moving body; the first contact of a
+    convex striker) or, for a collider, of the reported point. Falls back to the given point and
+    normal where the body has no free face or its faces point away from the given normal.
+    """
+    from geometry.tetmesh import TET_FACES
+
+    mine = np.flatnonzero(ps.alive & (ps.body == body) & (ps.links < 0).any(1))
+    if mine.size == 0:
+        return point, normal
+    tet, face = np.nonzero(ps.links[mine] < 0)
+    v = ps.rest_verts[mine[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
+    tri = np.take_along_axis(v, TET_FACES[face][:, :, None], axis=1)  # (F,3,3)
+    cen = tri.mean(1)
+    an = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted face normals
+    opposite = v[np.arange(len(face)), face]
+    flip = np.einsum("fi,fi->f", an, opposite - cen) > 0.0  # outward: away from the opposite vertex
+    an[flip] *= -1.0
+    facing = an @ normal < 0.0  # the side the striker meets (a thin wall's far face is as near)
+    if not facing.any():
+        return point, normal
+    dist = np.where(facing, np.linalg.norm(cen, axis=1), np.inf)
+    near = facing & (np.linalg.norm(cen - cen[int(np.argmin(dist))], axis=1) < radius)
+    an, cen = an[near], cen[near]
+    total = an.sum(0)
+    w = np.linalg.norm(an, axis=1)
+    inward = -total / max(float(np.linalg.norm(total)), 1e-300)
+    if np.linalg.norm(total) < 1e-3 * float(w.sum()) or float(np.dot(inward, normal)) <= 0.0:
+        return point, normal
+    plane = (w[:, None] * cen).sum(0) / w.sum()
+    foot = np.zeros(3) if striker is None else np.asarray(striker, dtype=np.float64) - point
+    foot = foot - float(np.dot(foot - plane, inward)) * inward
+    if np.linalg.norm(foot - plane) > radius + float(np.linalg.norm(plane)):
+        foot = -float(np.dot(-plane, inward)) * inward  # striker centre far off the patch: the point's foot
+    return point + foot, inward
+
+
+def held_particles(obj, bounds, x: np.ndarray, static: bool) -> np.ndarray:
+    """(N,) bool: particles at rest positions x held by the scene (within the object's held border
+    of its rest bounding box, along the axes the border does not swallow). A static object without a
+    held border is held everywhere."""
+    if not static:
+        return np.zeros(len(x), dtype=bool)
+    if obj.held_border <= 0:
+        return np.ones(len(x), dtype=bool)
+    lo, hi = bounds
+    axes = (hi - lo) > 2 * obj.held_border
+    return ((x - lo < obj.held_border) | (hi - x < obj.held_border))[:, axes].any(1)
+
+
+def contact_in_reference(world: World, body: int, other: int, point_w: np.ndarray, normal_w: np.ndarray) -> dict:
+    """The contact as the struck body saw it at that substep, in its reference frame: point, inward
+    normal and the striker's centre of mass (None for a collider or a static body). Recorded when
+    the contact happens: by the end of the frame both bodies have moved on."""
+    point, normal = _to_reference(world, body, point_w, normal_w)
+    striker = None
+    if other >= 0 and not world.rigid.body_is_static(other):
+        striker, _ = _to_reference(world, body, world.rigid.body_state().x[other], np.zeros(3))
+    return dict(point=point, normal=normal, striker=striker)
+
+
 def analyse(world: World, body: int, impact: dict):
     """Algorithm 1 at the impact point; returns the ImpactAnalysis (cracks in the reference frame)."""
-    from sph.cracks import ImpactSpec, analyse_impact
+    from sph.cracks import ImpactSpec, analyse_impact, tet_edge
 
     ps = world.particles
     ids = analysed_particles(world, body)
-    point, normal = _to_reference(world, body, impact["point"], impact["normal"])
+    point_w = np.asarray(impact["point"], dtype=np.float64)
+    ref = impact.get("reference") or contact_in_reference(world, body, impact["other"], point_w, impact["normal"])
+    point = ref["point"]
     nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
-    # The collision spheres cover the surface particles, so their contact point lies up to a few mm
-    # outside the tets: move it along the inward normal onto the nearest particle's surface
-    # (one particle radius from its centroid), where Algorithm 1 expects the analysed point.
-    gap = float(np.dot(normal, ps.centroid[nearest] - point)) - float(ps.radius[nearest])
-    if gap > 0.0:
-        point = point + gap * normal
+    # the struck surface's own point and normal, not the collision spheres' (surface_frame)
+    point, normal = surface_frame(ps, body, point, ref["normal"], tet_edge(float(ps.volume[nearest])),
+                                  striker=ref["striker"])
+    nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
     material = world.materials[int(ps.material[nearest])]
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(
         point=point, normal=normal, speed=impact["speed"], m1=world.rigid.body_mass(body),
-        R1=_local_radius(world, body, impact["point"]), **_other_body(world, impact["other"], impact["point"]),
+        R1=_local_radius(world, body, point_w), **_other_body(world, impact["other"], point_w),
+        held=bool(world.rigid.body_is_static(body)),
     )
     result = analyse_impact(ps.centroid[ids], ps.volume[ids], world.kernel_G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
+    if len(np.unique(ps.material[ids])) > 1:
+        result.cracks = across_materials(world, body, ids, spec, int(ps.material[nearest]), result.cracks)
     return result
+
+
+def across_materials(world: World, body: int, ids: np.ndarray, spec, material: int, cracks: list) -> list:
+    """Sect. 6, Fig. 12: a crack that reaches particles of another material stops there, and the
+    nearest crossing point starts a new analysis (Algorithm 1) in the other material's particles,
+    with its constants, kernel and crack count, struck by the same impact (same normal and speed):
+    the crack goes on in the direction the new material gives, or not at all where the new material
+    holds. One level: cracks of the new analyses are not followed into a third material."""
+    from dataclasses import replace
+
+    from sph.cracks import analyse_impact, material_crossings, stop_at_crossings
+
+    ps = world.particles
+    mats = ps.material[ids]
+    out = []
+    for crack in cracks:
+        crossings = material_crossings(ps.centroid[ids], mats, crack, crack_material=material)
+        out.append(stop_at_crossings(crack, crossings))
+        if not crossings:
+            continue
+        first = crossings[0]
+        sub = ids[mats == first.material]
+        spec_k = replace(spec, point=first.point, reference=None)
+        more = analyse_impact(ps.centroid[sub], ps.volume[sub], world.kernel_G[sub], world.materials[first.material],
+                              spec_k, crack_count=world.cfg.materials[first.material].cracks,
+                              thickness=world.bodies[body].thickness)
+        # the shatter zone belongs to the contact, not to the crossing
+        source = f"{crack.source}.crossing.material{first.material}"
+        out += [replace(c, r_inner=0.0, source=source) for c in more.cracks]
+    return out
 
 
 def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
@@ -120,10 +233,15 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
         parent = ps.parent[n_old:]
         world.kernel_G = np.concatenate([world.kernel_G, world.kernel_G[parent]])
     debris = rep.debris
-    if len(debris) and not world.cfg.has("debris"):
-        # without the 'debris' effect shattered particles leave the simulation; their mass is booked
-        world.debris_mass += float(ps.mass[debris][ps.alive[debris]].sum())
-        ps.alive[debris] = False
+    if len(debris):
+        debris = debris[ps.alive[debris]]
+        world.debris_pieces += len(debris)
+        if world.cfg.has("debris"):  # free spheres that keep the body's velocity field (v + w x r)
+            x_w, v_w = _world_motion(world, body, ps.centroid[debris])
+            world.debris.add(x_w, v_w, ps.radius[debris], debris)
+        else:  # shattered particles leave the simulation; their mass is booked
+            world.debris_mass += float(ps.mass[debris].sum())
+            ps.alive[debris] = False
         ps.body[debris] = -1
     world.particles = ps
     ids = np.flatnonzero(ps.alive & (ps.body == body))
@@ -159,15 +277,8 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
 
 def _held_labels(world: World, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Per label: True when the fragment touches the held border of a static object (a window frame)."""
-    n = int(labels.max()) + 1
-    if obj.held_border <= 0:
-        return np.ones(n, dtype=bool)
-    x = world.particles.centroid[ids]
-    lo, hi = obj_bounds
-    span = hi - lo
-    axes = span > 2 * obj.held_border
-    near = ((x - lo < obj.held_border) | (hi - x < obj.held_border))[:, axes].any(1)
-    held = np.zeros(n, dtype=bool)
+    near = held_particles(obj, obj_bounds, world.particles.centroid[ids], True)
+    held = np.zeros(int(labels.max()) + 1, dtype=bool)
     held[labels[near]] = True
     return held
 

@@ -27,6 +27,8 @@ from sim.errors import ConfigError
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
 from sim.timers import StageTimers
 
+SMALL_PIECE = 0.01  # 1: pieces lighter than this fraction of their object's mass count as small
+
 
 @dataclass
 class BodyInfo:
@@ -97,6 +99,8 @@ def stage_list(cfg: SceneConfig) -> list[str]:
         if cfg.has("shatter"):
             stages.append("fracture.shatter")
         stages.append("fracture.split")
+    if cfg.has("debris"):
+        stages.append("debris")
     return stages
 
 
@@ -133,6 +137,7 @@ class World:
         self.analyses: list[dict] = []  # one record per crack analysis, cracked or not
         self.last_analysis = None  # (body, sph.cracks.ImpactAnalysis) of the latest analysis
         self.debris_mass = 0.0  # kg: shattered particles taken out of the simulation (no 'debris')
+        self.debris_pieces = 0  # shattered particles, moved by the 'debris' effect or taken out
         self.surface_version = 0  # increases whenever fragment surfaces change
         t0 = time.perf_counter()
         self._build_materials()
@@ -141,6 +146,8 @@ class World:
             self._build_kernels()
         if cfg.has("rigid"):
             self._build_rigid()
+        if cfg.has("debris"):
+            self._build_debris()
         if cfg.has("elastic"):
             self._build_elastic()
         self.build_seconds = time.perf_counter() - t0
@@ -202,6 +209,11 @@ class World:
         for k, sp in enumerate(self._spawn):
             self.particles.body[sp["start"]:sp["stop"]] = k
         self.physical_count = len(self.particles)
+        # per scene object: one copy's mass (kg) and whether it can break (pieces by size class)
+        self.object_mass: dict[int, float] = {}
+        for sp in self._spawn:
+            self.object_mass.setdefault(sp["object"], float(self.particles.mass[sp["start"]:sp["stop"]].sum()))
+        self.object_breakable = [bool(o.breakable) for o in self.cfg.objects]
 
     def _build_kernels(self) -> None:
         """Rest kernel tensor G0 of every particle (Eq. 5; WPCA when the material asks, Sect. 4.1)."""
@@ -261,6 +273,21 @@ class World:
                                         bounds=(c.min(0), c.max(0)))
             self.body_material[bid] = int(np.bincount(ps.material[ids]).argmax())
 
+    def _build_debris(self) -> None:
+        """Free debris spheres (rigid/debris.py) that meet the scene's colliders."""
+        from rigid.debris import DebrisStore
+
+        cols = []
+        for c in self.cfg.colliders:
+            if c.type == "plane":
+                cols.append(dict(type="plane", x=c.point, normal=c.normal, restitution=c.restitution,
+                                 friction=c.friction))
+            else:
+                cols.append(dict(type="box", x=c.center, half=0.5 * np.asarray(c.size), restitution=c.restitution,
+                                 friction=c.friction))
+        self.debris = DebrisStore(len(self.particles), self.cfg.scene.gravity, cols)
+        self.allocations["debris"] = self.debris
+
     def _build_elastic(self) -> None:
         from sph.elastic import ElasticEffect
 
@@ -295,6 +322,9 @@ class World:
             for _ in range(sc.substeps):
                 with self.timers.stage("rigid"):
                     self.rigid.step(dt)
+                if "debris" in self.stages:
+                    with self.timers.stage("debris"):
+                        self.debris.step(dt)
                 if self.mode is not None:
                     with self.timers.stage("fracture.events"):
                         self._collect_impacts(impacts)
@@ -310,6 +340,8 @@ class World:
 
     def _collect_impacts(self, impacts: dict[int, dict]) -> None:
         """Keep, per breakable body, the hardest impact of this frame above the speed threshold."""
+        from sim.fracture_stage import contact_in_reference
+
         pairs = self.rigid.contact_events().by_body_pair()
         threshold = self.cfg.scene.impact_threshold
         for k in range(len(pairs["impulse"])):
@@ -324,9 +356,10 @@ class World:
                     continue
                 best = impacts.get(struck)
                 if best is None or speed > best["speed"]:
+                    point, normal = pairs["point"][k].copy(), sign * pairs["normal"][k]
                     impacts[struck] = dict(
-                        other=other, speed=speed, point=pairs["point"][k].copy(),
-                        normal=sign * pairs["normal"][k], impulse=float(pairs["impulse"][k]),
+                        other=other, speed=speed, point=point, normal=normal, impulse=float(pairs["impulse"][k]),
+                        reference=contact_in_reference(self, struck, other, point, normal),
                     )
 
     def _fracture(self, impacts: dict[int, dict]) -> None:
@@ -346,28 +379,53 @@ class World:
         from sim.fracture_stage import cut_body
 
         names = [o.name for o in self.cfg.objects]
+        by_body: dict[int, list] = {}  # every crack a body gets this frame, cut in one event
         for c in self.cfg.cracks:
             if c.frame != self.frame:
                 continue
             obj = names.index(c.object)
             body = next(sp["body"] for sp in self._spawn if sp["object"] == obj)
-            if body not in self.bodies:
-                continue
-            crack = Crack(point=c.point, normal=c.normal, r_outer=c.radius, side=c.side or None, r_inner=c.r_inner)
+            if body in self.bodies:
+                by_body.setdefault(body, []).append(
+                    Crack(point=c.point, normal=c.normal, r_outer=c.radius, side=c.side or None, r_inner=c.r_inner))
+        for body, cracks in by_body.items():
             record = dict(frame=self.frame, body=body, speed=0.0, scripted=True, stress_analysis_ms=0.0)
-            self.events.append(cut_body(self, body, [crack], record))
+            self.events.append(cut_body(self, body, cracks, record))
             self.surface_version += 1
 
     # ------------------------------------------------------------------ reporting
-    def fragment_count(self) -> int:
+    def pieces(self) -> dict:
+        """Pieces of the breakable objects, counted as the paper's Table 1 counts fragments: every
+        connected piece, including the single particles a shatter zone freed ("small fragments are
+        ignored in animation", Sect. 6.2), whether the `debris` effect moves them or not. Bodies
+        that cannot break (a steel ball, a floor block) are not pieces. Size classes: `debris` (one
+        particle), `small` (under SMALL_PIECE of its object's mass), `large`."""
         if "rigid" not in self.stages:
-            return len(self._spawn)
+            return dict(debris=0, small=0, large=len(self._spawn), total=len(self._spawn))
+        if self.mode is None:  # nothing can break: the pieces are the moving bodies
+            n = int(sum(1 for b, info in self.bodies.items() if self.rigid.body_state().alive[b] and not info.static))
+            return dict(debris=0, small=0, large=n, total=n)
+        ps = self.particles
         alive = self.rigid.body_state().alive
-        # pieces: every live body except static scenery that never breaks (a held pane's shards count)
-        return int(sum(1 for b, info in self.bodies.items() if alive[b] and (info.breakable or not info.static)))
+        counts = dict(debris=self.debris_pieces, small=0, large=0)
+        for b, info in self.bodies.items():
+            if not alive[b] or not self.object_breakable[info.object_index]:
+                continue
+            mine = ps.body == b
+            if int(mine.sum()) == 1:
+                counts["debris"] += 1
+            elif float(ps.mass[mine].sum()) < SMALL_PIECE * self.object_mass[info.object_index]:
+                counts["small"] += 1
+            else:
+                counts["large"] += 1
+        counts["total"] = counts["debris"] + counts["small"] + counts["large"]
+        return counts
+
+    def fragment_count(self) -> int:
+        return self.pieces()["total"]
 
     def counts(self) -> dict:
-        """The paper's Table 1 columns."""
+        """The paper's Table 1 columns, and the pieces by size class."""
         ps = self.particles
         return dict(
             physical_particles=int(self.physical_count),
@@ -375,6 +433,7 @@ class World:
             alive_particles=int(ps.alive.sum()),
             boundary_particles=int(self.rigid.n_spheres) if "rigid" in self.stages else 0,
             fragments=self.fragment_count(),
+            pieces=self.pieces(),
         )
 
     def mass_balance(self) -> dict:

@@ -111,8 +111,12 @@ from sph.contact import (
 from sph.eigen import sym_eig3_np
 from sph.kernel import GRAD_NORM
 from sph.materials import Material, strain_to_voigt, stress_from_voigt
+from sph.structure import Beam, plate_energy, series_impact, star_crack_count
 
-FIELDS = ("auto", "halfspace", "plate")
+FIELDS = ("auto", "halfspace", "plate", "beam")
+STRUCTURAL_DEPTH = 0.25  # depth / longest in-plane size of the struck wall below which it bends (plate, beam)
+SLENDER_WIDTH = 0.35  # width / length of the struck wall below which it is a beam ...
+SLENDER_DEPTH = 3.0  # ... when its width is also under this many depths (a compact section)
 GRADIENTS = ("sph", "analytic")  # Eq. 7 on the particles, or the field's exact gradient (reference)
 MAX_CRACKS = 64  # crack_count limit (a sector narrower than ~6 degrees holds no particle)
 DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
@@ -136,6 +140,7 @@ class ImpactSpec:
     E2: float = math.inf  # Pa: Young's modulus of the other body (inf: rigid)
     nu2: float = 0.25  # -: its Poisson ratio
     reference: np.ndarray | None = None  # (3,) -: in-plane reference direction e1 (None: from the kernel)
+    held: bool = False  # the struck body is held by the scene (static): a beam is supported at its ends
 
     def __post_init__(self) -> None:
         p = np.asarray(self.point, dtype=np.float64).reshape(-1)
@@ -175,6 +180,7 @@ class ImpactAnalysis:
     regularisation: float  # m: l = max(a, r_P)
     plate_thickness: float  # m: plate thickness used (0 for 'halfspace')
     plate_radius: float  # m: plate support radius L (0 for 'halfspace')
+    body_energy: float  # J/N^2: the struck wall's compliance energy E_1 in series with Hertz (0: rigid backing)
     depth: float  # m: measured depth of the body below P (d_n)
     particles: np.ndarray  # (M,) int: the analysed set N_p (indices into x)
     pairs: int  # member-neighbour pairs of the SPH gradient (0 for the analytic gradient)
@@ -188,7 +194,7 @@ class ImpactAnalysis:
     tension: np.ndarray  # (N,3,3) Pa: weighted mean tensile stress T_g (the Rankine stress)
     principal_stress: np.ndarray  # (N,3) Pa: eigenvalues of T_g, descending
     principal_dir: np.ndarray  # (N,3): eigenvector of the largest (the crack normal)
-    tension_per_newton: np.ndarray  # (N,) Pa/N: lambda_max(T_g) / F
+    tension_per_newton: np.ndarray  # (N,) Pa/N: the group's peak member tension / F (the Rankine stress)
     energy: np.ndarray  # (N,) J: U_g (Eq. 8, summed over members)
     energy_available: np.ndarray  # (N,) J: U'_g (capped by the impact's kinetic energy)
     fired: np.ndarray  # (N,) bool: Rankine criterion met
@@ -217,6 +223,7 @@ class ImpactAnalysis:
             "regularisation": float(self.regularisation),
             "plate_thickness": float(self.plate_thickness),
             "plate_radius": float(self.plate_radius),
+            "body_energy": float(self.body_energy),
             "depth": float(self.depth),
             "analysed_particles": int(self.particles.size),
             "pairs": int(self.pairs),
@@ -226,6 +233,7 @@ class ImpactAnalysis:
                     "bisector": f(self.bisector[k]),
                     "principal_stress": f(self.principal_stress[k]),
                     "principal_dir": f(self.principal_dir[k]),
+                    "peak_tension": float(self.tension_per_newton[k] * self.hertz.force),
                     "energy": float(self.energy[k]),
                     "energy_available": float(self.energy_available[k]),
                     "fired": bool(self.fired[k]),
@@ -280,6 +288,97 @@ def _reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | 
     e1 = e1 / np.linalg.norm(e1)
     k = int(np.argmax(np.abs(e1) - 1e-12 * np.arange(3)))
     return -e1 if e1[k] < 0.0 else e1
+
+
+@dataclass
+class StruckWall:
+    """The part of the struck body that carries the impact: the particles between the struck face
+    and the far face of the wall under P (a hollow body's far wall excluded), with the principal
+    in-plane axes of their spread (volume-weighted)."""
+
+    x: np.ndarray  # (W,3) m: offsets from P of the wall's particles
+    volumes: np.ndarray  # (W,) m^3
+    depth_of: np.ndarray  # (W,) m: their depth along n
+    edges: np.ndarray  # (W,) m: their tet edges
+    frame: np.ndarray  # (3,3) rows: long in-plane axis, short in-plane axis, n
+    length: float  # m: extent along the long axis (centroids plus one tet edge)
+    width: float  # m: extent along the short axis
+    _y_bar: float = 0.0  # m: lateral offset of the section centroid (set by `beam`)
+    _z_bar: float = 0.0  # m: depth of the neutral axis (set by `beam`)
+
+    @property
+    def axis(self) -> np.ndarray:
+        return self.frame[0]
+
+    @property
+    def volume(self) -> float:
+        return float(self.volumes.sum())
+
+    def kind(self, depth: float) -> str:
+        """'auto' field: a wall much thinner than it is long bends: a beam when it is also narrow
+        with a compact section, else a plate; a thick body is a half-space."""
+        if depth >= STRUCTURAL_DEPTH * self.length:
+            return "halfspace"
+        if self.width < SLENDER_WIDTH * self.length and self.width < SLENDER_DEPTH * depth:
+            return "beam"
+        return "plate"
+
+    def local(self, offsets: np.ndarray) -> np.ndarray:
+        """(N,3) beam coordinates (s, y, z) of offsets from P: along the axis, lateral from the
+        section's centroid, depth from its neutral axis (set by `beam`)."""
+        q = offsets @ self.frame.T
+        return q - np.array([0.0, self._y_bar, self._z_bar])
+
+    def beam(self, E_axis: float, nu: float, mass: float, held: bool, e_near: float) -> Beam:
+        """Euler-Bernoulli beam of this wall (sph/structure.py): ends at its extremes along the
+        axis, section from the particles within a slab |s| < 2 tet edges of P: area = wall volume /
+        length, second moment = area x (variance of depth, plus e^2/20 per tet: a regular tet's own
+        variance along any axis)."""
+        q = self.x @ self.frame.T
+        s = q[:, 0]
+        slab = np.abs(s) < max(2.0 * e_near, 1e-12)
+        if slab.sum() < 2:
+            slab = np.argsort(np.abs(s))[: min(8, len(s))]
+        v = self.volumes[slab]
+        self._y_bar = float(np.average(q[slab, 1], weights=v))
+        self._z_bar = float(np.average(q[slab, 2], weights=v))
+        k2 = float(np.average((q[slab, 2] - self._z_bar) ** 2 + self.edges[slab] ** 2 / 20.0, weights=v))
+        pad = 0.5 * float(self.edges.mean())
+        s_left, s_right = max(-float(s.min()) + pad, pad), max(float(s.max()) + pad, pad)
+        area = self.volume / (s_left + s_right)
+        return Beam(E_axis, nu, area * k2, s_left, s_right, mass, held=held)
+
+
+def _struck_wall(d: np.ndarray, depth: np.ndarray, volume: np.ndarray, n: np.ndarray, z_far: float,
+                 e_near: float) -> StruckWall:
+    """The struck wall (StruckWall) from offsets d (N,3) from P, depths (N,), volumes (N,)."""
+    inw = np.flatnonzero((depth >= -e_near) & (depth <= z_far + e_near))
+    if inw.size == 0:
+        inw = np.array([int(np.argmin(np.einsum("ij,ij->i", d, d)))])
+    x, v = d[inw], volume[inw]
+    q = x - np.outer(x @ n, n)
+    cov = np.einsum("w,wi,wj->ij", v, q, q) / v.sum()
+    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
+    t1 = helper - np.dot(helper, n) * n
+    t1 /= np.linalg.norm(t1)
+    T = np.stack([t1, np.cross(n, t1)])
+    w, vec = np.linalg.eigh(T @ cov @ T.T)
+    a = T.T @ vec[:, 1]  # largest spread: the long axis
+    k = int(np.argmax(np.abs(a) - 1e-12 * np.arange(3)))
+    a = -a if a[k] < 0.0 else a
+    frame = np.stack([a, np.cross(n, a), n])
+    e = np.cbrt(6.0 * math.sqrt(2.0) * v)
+    length = float(np.ptp(q @ a)) + float(e.mean())
+    width = float(np.ptp(q @ frame[1])) + float(e.mean())
+    return StruckWall(x, v, x @ n, e, frame, length, width)
+
+
+def E_along(C: np.ndarray, axis: np.ndarray) -> float:
+    """Young's modulus (Pa) along a unit axis of the Voigt stiffness C: 1/E = v^T C^-1 v with
+    v = (a_x^2, a_y^2, a_z^2, a_y a_z, a_x a_z, a_x a_y) (uniaxial stress along the axis)."""
+    a = np.asarray(axis, dtype=np.float64)
+    v = np.array([a[0] ** 2, a[1] ** 2, a[2] ** 2, a[1] * a[2], a[0] * a[2], a[0] * a[1]])
+    return float(1.0 / (v @ np.linalg.solve(C, v)))
 
 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
@@ -406,7 +505,7 @@ def analyse_impact(
     struck body's alive particles, volume (N,) m^3, G (N,3,3) or (3,3) 1/m kernel tensors, material
     (stiffness, tensile_strength, toughness G_c), impact: ImpactSpec, crack_count N >= 1, thickness
     B (m, Eq. 11), correction: Bonet-Lok kernel correction of Eq. 7, field: 'auto', 'halfspace' or
-    'plate'. Raises ConfigError on bad input."""
+    'plate' or 'beam'. Raises ConfigError on bad input."""
     clock = time.perf_counter
     t0 = clock()
     tim: dict = {}
@@ -422,9 +521,10 @@ def analyse_impact(
         G = np.broadcast_to(G, (n_all, 3, 3))
     if G.shape != (n_all, 3, 3) or not np.all(np.isfinite(G)):
         raise ConfigError("analyse_impact.G", G.shape, f"(3,3) or ({n_all},3,3) finite kernel tensors")
-    N = int(crack_count)
-    if N != crack_count or not 1 <= N <= MAX_CRACKS:
-        raise ConfigError("cracks", crack_count, f"an integer 1..{MAX_CRACKS}")
+    auto = isinstance(crack_count, str) and crack_count == "auto"
+    N = 0 if auto else int(crack_count)
+    if not auto and (N != crack_count or not 1 <= N <= MAX_CRACKS):
+        raise ConfigError("cracks", crack_count, f"an integer 1..{MAX_CRACKS} or 'auto'")
     B = float(thickness)
     if not (math.isfinite(B) and B > 0.0):
         raise ConfigError("thickness", thickness, "> 0 m and finite")
@@ -459,12 +559,9 @@ def analyse_impact(
 
     e1 = _reference_direction(GP, n, impact.reference)
     frame = np.stack([e1, np.cross(n, e1), n])
-    bis_ang = 2.0 * math.pi * np.arange(N) / N
-    bis = np.cos(bis_ang)[:, None] * frame[0] + np.sin(bis_ang)[:, None] * frame[1]
 
     V_near = float(volume[nearest])
     r_near = float(np.cbrt(3.0 * V_near / (4.0 * math.pi)))
-    ell = max(hz.radius_a, r_near)
     depth_all = d @ n
     inplane2 = np.maximum(dist2 - depth_all * depth_all, 0.0)
     # depth of the body below P: the column within one tet edge of the normal line, down to its first
@@ -482,21 +579,48 @@ def analyse_impact(
         depth = z_far + r_near
         z_mid = 0.5 * (float(zc[0]) + z_far)  # mid-surface of the struck wall (centroid depths)
     else:
-        depth = r_near
+        depth, z_far = r_near, 0.0
     depth = max(depth, r_near)
+    wall = _struck_wall(d, depth_all, volume, n, z_far, e_near)
     use = field
     if use == "auto":
-        use = "plate" if depth < rho else "halfspace"
+        use = wall.kind(depth)
+    beam = None
+    e_body = 0.0
     Bf = min(B, depth) if use == "plate" else 0.0
     z_shift = np.array([0.0, 0.0, z_mid - 0.5 * Bf])  # plate field: zeta = z - z_mid
-    Lp = max(float(np.sqrt(inplane2.max())), 2.0 * rho) if use == "plate" else 0.0
+    Lp = 0.0
+    if use == "plate":
+        # support radius: that of a disc with the wall's mid-surface area (a pane: about its size)
+        Lp = max(math.sqrt(wall.volume / (math.pi * Bf)), 2.0 * rho)
+        e_body = plate_energy(E1, nu1, Bf, Lp)
+    elif use == "beam":
+        beam = wall.beam(E_along(C, wall.axis), nu1, impact.m1, impact.held, e_near)
+        e_body = beam.energy()
+    hz = series_impact(hz, e_body)
+    F = hz.force
+    ell = max(hz.radius_a, r_near)
+    if auto:  # N from the struck wall's bending vs fracture energy (sph/structure.py, Vandenberghe 2013)
+        h_wall = Bf if use == "plate" else min(B, depth)
+        N = int(np.clip(round(star_crack_count(E1, h_wall, Gc, material.density, impact.speed)), 1, MAX_CRACKS))
+    bis_ang = 2.0 * math.pi * np.arange(N) / N
+    bis = np.cos(bis_ang)[:, None] * frame[0] + np.sin(bis_ang)[:, None] * frame[1]
+    if use in ("plate", "beam"):
+        # a wall that bends: G_P's kernel swept from P through the wall to its far face, so that the
+        # bending tension on the far side is in the analysed set (Algorithm 1, lines 1-6)
+        t_ax = np.clip(depth_all, 0.0, z_far)
+        reach_c = rho + z_far
+        cand = np.flatnonzero(dist2 < reach_c * reach_c * (1.0 + 1e-12))
+        off = d[cand] - t_ax[cand, None] * n
+        members = cand[np.linalg.norm(off @ GP.T, axis=1) < 1.0]
+        m = members.size
     tim["select_ms"] = (clock() - t0) * 1e3
 
     # 3. neighbours of the members and the contact displacement at unit force
     t1 = clock()
     if m and gradient == "sph":
         Gm_rho = 1.0 / np.linalg.eigvalsh(G[members])[:, 0]
-        reach = rho + float(Gm_rho.max())
+        reach = float(np.sqrt(dist2[members].max())) + float(Gm_rho.max())
         local = np.flatnonzero(dist2 < reach * reach * (1.0 + 1e-12))
         owner, nbr = neighbour_pairs(x, G, members, local)
         need = np.union1d(members, nbr)
@@ -506,7 +630,9 @@ def analyse_impact(
     u = np.zeros((n_all, 3))
     if need.size:
         loc = d[need] @ frame.T
-        if use == "plate":
+        if use == "beam":
+            u_loc = beam.displacement(wall.local(d[need])) @ wall.frame @ frame.T
+        elif use == "plate":
             u_loc = plate_displacement(loc - z_shift, 1.0, E1, nu1, Bf, Lp, ell)
         else:
             u_loc = boussinesq_displacement(loc, 1.0, E1, nu1, ell)
@@ -517,6 +643,8 @@ def analyse_impact(
     t2 = clock()
     if gradient == "sph":
         grad, _ = sph_gradient(x, volume, G, u, members, owner, nbr, correction)
+    elif use == "beam":
+        grad = np.einsum("ai,mab,bj->mij", wall.frame, beam.gradient(wall.local(d[members])), wall.frame)
     elif use == "plate":
         lm = d[members] @ frame.T
         grad = np.einsum("ai,mab,bj->mij", frame, plate_gradient(lm - z_shift, 1.0, E1, nu1, Bf, Lp, ell), frame)
@@ -547,8 +675,8 @@ def analyse_impact(
     g_eps = gmean(eps) * F
     g_sig = gmean(sig) * F
     T1 = gmean(sig_plus)
+    Pi = np.eye(3) - np.outer(n, n)
     if use == "plate":  # thin-plate theory: plane stress (sigma_iz = 0); drop out-of-plane noise
-        Pi = np.eye(3) - np.outer(n, n)
         T1 = Pi @ T1 @ Pi
     U_g = np.bincount(grp, weights=U1, minlength=N) * F * F if m else np.zeros(N)
     pvals = np.zeros((N, 3))
@@ -562,8 +690,15 @@ def analyse_impact(
             ref = float(np.dot(nk, bis[k]))
         pvals[k] = vals * F
         pdirs[k] = -nk if ref < 0.0 else nk
-    tpn = pvals[:, 0] / F  # F > 0: ImpactSpec requires speed > 0
-    fired = (cnt > 0) & (wsum > 0.0) & (pvals[:, 0] > sigma_t)
+    # Rankine is a point criterion: a group fires where the largest tensile principal stress of one
+    # of its members exceeds the strength (the crack starts at the peak, on the far face of a bent
+    # wall or at the edge of a Hertz contact); the group mean gives the crack's direction (line 16)
+    member_plus = Pi @ sig_plus @ Pi if use == "plate" else sig_plus
+    lam = np.linalg.eigvalsh(member_plus)[:, -1] if m else np.zeros(0)
+    peak1 = np.zeros(N)
+    np.maximum.at(peak1, grp, lam)
+    tpn = peak1  # Pa/N; F > 0: ImpactSpec requires speed > 0
+    fired = (cnt > 0) & (wsum > 0.0) & (peak1 * F > sigma_t)
     tim["stress_ms"] = (clock() - t2) * 1e3
 
     # 6-8. crack regions, r_outer (Eq. 11), r_inner (U_limit)
@@ -576,7 +711,7 @@ def analyse_impact(
     r_lo, r_hi = rho, max(L_body, rho)
     r_out = np.where(fired, np.clip((hz.area / S_ref) * U_av / (Gc * B), r_lo, r_hi), 0.0)
     A_near = math.sqrt(3.0) * e_near**2
-    u_lim = Gc * A_near / V_near
+    u_lim = 0.5 * Gc * A_near / V_near  # each face it frees is half of a crack shared with a neighbour
     U_rel = float(U_av.sum())
     r_in = 0.0
     if U_rel > 0.0:
@@ -614,6 +749,7 @@ def analyse_impact(
         regularisation=ell,
         plate_thickness=Bf,
         plate_radius=Lp,
+        body_energy=e_body,
         depth=depth,
         particles=members,
         pairs=int(owner.size),
@@ -644,15 +780,19 @@ def analyse_impact(
 
 def threshold_speed(analysis: ImpactAnalysis, impact: ImpactSpec | None = None) -> float:
     """Speed (m/s) at which the analysis' largest group tension reaches the tensile strength:
-    F_th = sigma_t / max_g lambda_max(T_g / F), v = v_Hertz(F_th) (sph.contact.speed_for_force).
-    Exact while the regularisation stays l = r_P (a <= r_P at that speed: the analysis is then
-    linear in F); inf if no group has tension. The effective m*, R*, E* come from analysis.hertz
-    (`impact` is accepted for symmetry with `hertz_cone_threshold` and not needed)."""
+    F_th = sigma_t / max_g (peak tension / F), and the speed whose impact energy makes that force
+    with the Hertz contact and the wall's compliance in series (sph/structure.py):
+    1/2 m* v^2 = 2/5 F^(5/3) k_H^(-2/3) + E_1 F^2. Exact while the regularisation stays l = r_P
+    (a <= r_P at that speed: the analysis is then linear in F); inf if no group has tension. The
+    effective m*, R*, E* come from analysis.hertz (`impact` is accepted for symmetry with
+    `hertz_cone_threshold` and not needed)."""
     s = float(np.max(analysis.tension_per_newton)) if analysis.tension_per_newton.size else 0.0
     if not s > 0.0:
         return math.inf
     hz = analysis.hertz
-    return speed_for_force(analysis.tensile_strength / s, hz.m_eff, hz.R_eff, hz.E_eff)
+    F = analysis.tensile_strength / s
+    v_hertz = speed_for_force(F, hz.m_eff, hz.R_eff, hz.E_eff)
+    return math.sqrt(v_hertz**2 + 2.0 * analysis.body_energy * F * F / hz.m_eff)
 
 
 def hertz_cone_threshold(material: Material, impact: ImpactSpec) -> float:

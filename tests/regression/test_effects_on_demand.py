@@ -31,7 +31,8 @@ print(json.dumps(dict(
 """
 
 FRACTURE_MODULES = {"sph.corotated", "sph.neighbours", "sph.elastic", "sph.cracks", "sph.contact", "sph.kernel",
-                    "geometry.cutting", "geometry.subdivision", "geometry.fragments", "geometry.surface"}
+                    "geometry.cutting", "geometry.subdivision", "geometry.fragments", "geometry.surface",
+                    "sph.structure", "rigid.debris"}
 
 
 def test_rigid_pile_builds_no_fracture_or_sph_stage():
@@ -50,9 +51,11 @@ def test_rigid_pile_builds_no_fracture_or_sph_stage():
 def test_stage_lists_follow_effects():
     assert stage_list(load_scene("rigid_pile")) == ["rigid"]
     assert stage_list(load_scene("pot")) == [
-        "rigid", "fracture.analysis", "fracture.subdivision", "fracture.shatter", "fracture.split"]
+        "rigid", "fracture.analysis", "fracture.subdivision", "fracture.shatter", "fracture.split", "debris"]
     assert stage_list(load_scene("pot_basic")) == [
-        "rigid", "fracture.analysis", "fracture.links", "fracture.shatter", "fracture.split"]
+        "rigid", "fracture.analysis", "fracture.links", "fracture.shatter", "fracture.split", "debris"]
+    assert stage_list(load_scene("tet_cut_31")) == ["rigid", "fracture.analysis", "fracture.subdivision",
+                                                    "fracture.split"]
     assert stage_list(load_scene("wire")) == ["elastic"]
 
 
@@ -61,5 +64,21 @@ def test_world_allocations_match_stages():
     try:
         assert sorted(w.allocations) == ["rigid"]
         assert not hasattr(w, "elastic")
+    finally:
+        w.release()
+
+
+def test_debris_store_only_with_the_debris_effect():
+    """Shattered particles move only where the scene asks for 'debris'; without it nothing is allocated
+    and they leave the simulation with their mass booked (mass_balance)."""
+    cfg = load_scene("glass_r3", ["scene.effects=[\"rigid\",\"fracture\",\"subdivision\",\"shatter\"]"])
+    w = World(cfg)
+    try:
+        assert "debris" not in w.stages and "debris" not in w.allocations and not hasattr(w, "debris")
+    finally:
+        w.release()
+    w = World(load_scene("glass_r3"))
+    try:
+        assert w.stages[-1] == "debris" and sorted(w.allocations) == ["debris", "rigid"]
     finally:
         w.release()

@@ -30,11 +30,17 @@ def check_world(world: World) -> None:
         st = world.rigid.body_state()
         for name in ("x", "q", "v", "w"):
             assert np.all(np.isfinite(getattr(st, name)[st.alive]))
-        bodies = np.unique(ps.body[ps.alive])
+        in_body = ps.alive & (ps.body >= 0)  # body -1: debris, moved by the debris store
+        bodies = np.unique(ps.body[in_body])
         assert np.all(st.alive[bodies])
         masses = sum(world.rigid.body_mass(int(b)) for b in bodies if not world.rigid.body_is_static(int(b)))
-        dynamic = np.array([not world.rigid.body_is_static(int(b)) for b in ps.body[ps.alive]])
-        assert masses == pytest.approx(ps.mass[ps.alive][dynamic].sum(), rel=1e-12)
+        dynamic = np.array([not world.rigid.body_is_static(int(b)) for b in ps.body[in_body]], dtype=bool)
+        assert masses == pytest.approx(ps.mass[in_body][dynamic].sum(), rel=1e-12)
+        freed = np.flatnonzero(ps.alive & (ps.body < 0))
+        if "debris" in world.stages:
+            assert np.array_equal(np.sort(world.debris.state()["particle"]), freed)
+        else:
+            assert freed.size == 0
     if "elastic" in world.stages:
         assert np.all(np.isfinite(world.elastic.positions()))
     lo, hi = world.cfg.scene.expected_fragments

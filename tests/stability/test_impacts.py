@@ -19,7 +19,7 @@ from scenes.loader import load_scene, scene_from_dict
 from sim.world import World
 from tests.stability.helpers import GLASS, G, MomentumLedger, body_energy, material, pane_scene, sphere_speeds
 
-SPEEDS = [1.0, 10.0, 50.0, 200.0]
+SPEEDS = [2.0, 10.0, 50.0, 200.0]  # m/s: 2 is twice the pane's threshold (about 1 m/s)
 MAX_SPEED = 200.0  # m/s: RigidConfig.max_speed_mps, the solver's clamp
 PANE_FRICTIONLESS = ["materials.glass.friction=0", "materials.steel.friction=0", "colliders.0.friction=0"]
 POT_FRICTIONLESS = ["materials.porcelain.friction=0", "colliders.0.friction=0"]
@@ -133,7 +133,7 @@ def _closest_approach(cfg, ball: int = 1, frames: int = 6) -> tuple[float, float
         world.release()
 
 
-@pytest.mark.parametrize("speed", SPEEDS)
+@pytest.mark.parametrize("speed", [1.0, 10.0, 50.0, 200.0])
 def test_ball_does_not_tunnel_through_a_thin_pane(speed):
     """Rigid only (the pane cannot break), friction 0.4: the ball's centre never crosses the 8 mm pane
     (one 2 cm tet thick) and it comes back, up to the 200 m/s clamp."""
@@ -195,7 +195,7 @@ def two_breakable_boxes(speed: float) -> dict:
 
 
 def test_two_breakable_bodies_below_the_crack_speed():
-    w = World(scene_from_dict(two_breakable_boxes(5.0), "two"))
+    w = World(scene_from_dict(two_breakable_boxes(1.0), "two"))  # the plates crack from about 2 m/s each
     try:
         w.step_frame()
         assert len(w.analyses) == 2 and not w.events  # both analysed against each other, no crack

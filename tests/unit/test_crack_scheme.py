@@ -99,25 +99,39 @@ def test_threshold_speed_matches_bisection(pane, capsys):
 
 
 def test_threshold_scales_with_strength_and_stiffness(pane, capsys):
-    """The group stress is linear in F (F ~ v^(6/5) E*^(2/5)) and independent of E at given F, so
-    v_th ~ sigma_t^(5/6) E*^(-1/3): doubling sigma_t -> x 2^(5/6) = 1.782; doubling E (rigid ball,
-    so E* doubles) -> x 2^(-1/3) = 0.794. (The Hertz peak stress ~ v^(2/5) would give 2^(5/2) = 5.66.)"""
+    """The group stress is linear in F and the pane's bending compliance E_1 is in series with the
+    Hertz contact (sph/structure.py), so the threshold force F_th = sigma_t / (peak tension per N)
+    and v_th = sqrt(2 (2/5 F^(5/3) k_H^(-2/3) + E_1 F^2) / m*). Doubling sigma_t doubles F_th; the
+    test computes the expected speed ratio from that energy balance with its own Hertz and
+    Kirchhoff-plate formulas, and checks `threshold_speed` against a bisection on `fired`."""
     rigid = dict(E2=math.inf)
 
-    def v_th(material: Material) -> float:
+    def v_th(material: Material) -> tuple[float, object]:
         an, imp = analyse(pane, 1.0, material=material, **rigid)
         guess = threshold_speed(an, imp)
-        return bisect_threshold(lambda v: bool(analyse(pane, v, material=material, **rigid)[0].fired.any()),
-                                0.7 * guess, 1.4 * guess, rel=1e-5)
+        v = bisect_threshold(lambda v: bool(analyse(pane, v, material=material, **rigid)[0].fired.any()),
+                             0.7 * guess, 1.4 * guess, rel=1e-5)
+        assert v == pytest.approx(guess, rel=1e-3)
+        return v, an
 
-    base = v_th(glass())
-    strong = v_th(glass(sigma_t=2 * SIGMA_T))
-    stiff = v_th(glass(scale_E=2.0))
+    base, an = v_th(glass())
+    strong, _ = v_th(glass(sigma_t=2 * SIGMA_T))
+    # the same energy balance, written here from Hertz (k_H) and the simply supported plate (E_1)
+    E, nu, B, L = 7e10, 0.22, an.plate_thickness, an.plate_radius
+    D = E * B**3 / (12 * (1 - nu**2))
+    e1 = L**2 * (3 + nu) / (32 * math.pi * (1 + nu) * D)
+    kH = 4 / 3 * an.hertz.E_eff * math.sqrt(an.hertz.R_eff)
+    F1 = SIGMA_T / float(an.tension_per_newton.max())
+
+    def energy(F: float) -> float:
+        return 0.4 * F ** (5 / 3) * kH ** (-2 / 3) + e1 * F * F
+
+    expected = math.sqrt(energy(2 * F1) / energy(F1))
     with capsys.disabled():
-        print(f"\n[threshold scaling] v_th = {base:.4f} m/s; 2 sigma_t: x {strong / base:.4f} "
-              f"(theory {2 ** (5 / 6):.4f}); 2 E: x {stiff / base:.4f} (theory {2 ** (-1 / 3):.4f})")
-    assert strong / base == pytest.approx(2 ** (5 / 6), rel=0.02)
-    assert stiff / base == pytest.approx(2 ** (-1 / 3), rel=0.02)
+        print(f"\n[threshold scaling] v_th = {base:.4f} m/s; 2 sigma_t: x {strong / base:.4f} (energy balance "
+              f"{expected:.4f}; Hertz alone {2 ** (5 / 6):.4f}, plate alone 2)")
+    assert strong / base == pytest.approx(expected, rel=0.01)
+    assert 2 ** (5 / 6) < strong / base <= 2.0
 
 
 # ----------------------------------------------------------------------------- crack count and shape
@@ -179,9 +193,9 @@ def test_thick_block_gets_cone_facets():
 
 
 def test_r_outer_grows_with_speed_and_shrinks_with_toughness(pane):
-    tough = glass(toughness=200.0)  # a large G_c keeps r_outer inside its clamps
+    tough = glass(toughness=8.0)  # soda-lime glass: G_c = K_Ic^2 / E = (0.75 MPa m^0.5)^2 / 70 GPa
     v_th = threshold_speed(*analyse(pane, 1.0, material=tough))
-    speeds = [1.5 * v_th, 2.0 * v_th, 2.5 * v_th]
+    speeds = [1.5 * v_th, 1.75 * v_th, 2.0 * v_th]
     runs = [analyse(pane, v, material=tough)[0] for v in speeds]
     for an in runs:
         assert an.fired.all()
@@ -189,7 +203,7 @@ def test_r_outer_grows_with_speed_and_shrinks_with_toughness(pane):
         assert np.all(an.r_outer < 0.2)  # nor above
     r = np.array([an.r_outer for an in runs])
     assert np.all(np.diff(r, axis=0) > 0.0)
-    tougher = analyse(pane, 2.0 * v_th, material=glass(toughness=400.0))[0]
+    tougher = analyse(pane, 1.75 * v_th, material=glass(toughness=16.0))[0]
     assert np.all(tougher.r_outer > tougher.support_radius)
     assert np.allclose(tougher.r_outer, 0.5 * runs[1].r_outer, rtol=1e-12)  # r_outer ~ 1 / G_c
 
@@ -216,7 +230,8 @@ def test_r_inner_follows_the_energy_limit(pane):
     # u_limit is the energy density that frees a regular tet of the nearest particle's volume
     V = float(pane.particles.volume[an.nearest])
     e = tet_edge(V)
-    assert an.u_limit == pytest.approx(10.0 * math.sqrt(3.0) * e * e / V, rel=1e-12)
+    # half its surface: each face it frees is one side of a crack shared with its neighbour
+    assert an.u_limit == pytest.approx(0.5 * 10.0 * math.sqrt(3.0) * e * e / V, rel=1e-12)
 
 
 def test_energy_is_capped_by_the_impact(pane):
@@ -225,8 +240,15 @@ def test_energy_is_capped_by_the_impact(pane):
     assert np.all(an.energy_available <= an.energy)
     hz = hertz_impact(float(pane.particles.mass.sum()), BALL["m2"], math.inf, BALL["R2"], an.E1, an.nu1,
                       BALL["E2"], BALL["nu2"], 10.0)
-    assert an.hertz.force == pytest.approx(hz.force, rel=1e-12)
-    assert speed_for_force(an.hertz.force, hz.m_eff, hz.R_eff, hz.E_eff) == pytest.approx(10.0, rel=1e-12)
+    # the pane bends: its compliance in series with the contact takes the force below Hertz's, and
+    # the energy balance 1/2 m* v^2 = 2/5 F^(5/3) k_H^(-2/3) + E_1 F^2 holds at the force found
+    assert an.field == "plate" and an.body_energy > 0.0
+    assert an.hertz.force < hz.force
+    kH = 4 / 3 * hz.E_eff * math.sqrt(hz.R_eff)
+    F = an.hertz.force
+    assert 0.4 * F ** (5 / 3) * kH ** (-2 / 3) + an.body_energy * F * F == pytest.approx(
+        0.5 * hz.m_eff * 10.0**2, rel=1e-9)
+    assert speed_for_force(hz.force, hz.m_eff, hz.R_eff, hz.E_eff) == pytest.approx(10.0, rel=1e-12)
 
 
 # ----------------------------------------------------------------------------- anisotropy

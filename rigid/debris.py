@@ -1,0 +1,191 @@
+"""Debris: the particles a shatter zone frees (Sect. 4.2, r_inner: "break into isolated particles"),
+moved as free spheres that fall and collide with the scene's colliders (DESIGN.md section 3,
+"Debris"), the `debris` effect.
+
+A debris particle is a point mass with the radius of its tet, r = (3V / 4 pi)^(1/3); it does not
+rotate and collides with the static colliders only (planes and oriented boxes), never with bodies
+or other debris: thousands of grains cost one small kernel per substep, not contacts in the rigid
+solver. Per substep (symplectic Euler, like the rigid bodies): v += g dt, x += v dt; then for each
+collider with penetration d < 0 the sphere is moved out along the contact normal and its normal
+velocity v_n < 0 is reflected with the collider's restitution e, while Coulomb friction takes up to
+mu (1 + e) |v_n| from the tangential speed (an impulse bounded by the normal impulse). Mass is
+carried by the particle set (alive, body -1); the store holds only positions and velocities.
+"""
+
+
+import numpy as np
+import taichi as ti
+
+from sim.errors import ConfigError
+from sim.runtime import numpy_float
+
+MIN_CAPACITY = 256  # debris slots allocated at least
+PLANE, BOX = 0, 1  # collider kinds
+
+
+@ti.data_oriented
+class DebrisStore:
+    """Free debris spheres and the colliders they meet; capacity grows by doubling between frames."""
+
+    def __init__(self, capacity: int, gravity, colliders: list[dict]) -> None:
+        self.gravity = ti.math.vec3(*[float(g) for g in gravity])
+        self._colliders = list(colliders)
+        self.count = 0
+        self._tree = None
+        self._alloc(max(MIN_CAPACITY, int(capacity)), max(1, len(self._colliders)))
+        self._upload_colliders()
+
+    def _alloc(self, cap: int, ncol: int) -> None:
+        vec3, mat3 = ti.math.vec3, ti.math.mat3
+        fb = ti.FieldsBuilder()
+        # ---- debris: fixed data ----
+        self.debris_r = ti.field(float)  # (ND,) m: radius of the particle's tet-volume sphere
+        self.debris_particle = ti.field(ti.i32)  # (ND,) -: index of the particle in the ParticleSet
+        # ---- debris: changing data ----
+        self.debris_x = vec3.field()  # (ND,) m: world position
+        self.debris_v = vec3.field()  # (ND,) m/s: velocity
+        fb.dense(ti.i, cap).place(self.debris_r, self.debris_particle, self.debris_x, self.debris_v)
+        # ---- colliders: fixed data ----
+        self.col_kind = ti.field(ti.i32)  # (NC,) -: PLANE or BOX
+        self.col_x = vec3.field()  # (NC,) m: a point of the plane, or the box centre
+        self.col_n = vec3.field()  # (NC,) -: plane's outward unit normal
+        self.col_rot = mat3.field()  # (NC,) -: box orientation (columns: box axes in the world)
+        self.col_half = vec3.field()  # (NC,) m: box half extents
+        self.col_e = ti.field(float)  # (NC,) -: restitution
+        self.col_mu = ti.field(float)  # (NC,) -: Coulomb friction
+        fb.dense(ti.i, ncol).place(self.col_kind, self.col_x, self.col_n, self.col_rot, self.col_half,
+                                   self.col_e, self.col_mu)
+        self._tree = fb.finalize()
+        self.capacity = cap
+
+    def _upload_colliders(self) -> None:
+        n = max(1, len(self._colliders))
+        kind = np.zeros(n, np.int32)
+        x, nrm, half = np.zeros((n, 3)), np.tile([0.0, 1.0, 0.0], (n, 1)), np.ones((n, 3))
+        rot, e, mu = np.tile(np.eye(3), (n, 1, 1)), np.zeros(n), np.zeros(n)
+        for k, c in enumerate(self._colliders):
+            kind[k] = PLANE if c["type"] == "plane" else BOX
+            x[k] = c["x"]
+            if c["type"] == "plane":
+                nrm[k] = np.asarray(c["normal"], dtype=np.float64) / np.linalg.norm(c["normal"])
+            else:
+                half[k] = c["half"]
+                rot[k] = c.get("rot", np.eye(3))
+            e[k], mu[k] = c["restitution"], c["friction"]
+        fdt = numpy_float()
+        self.col_kind.from_numpy(kind)
+        for fld, a in ((self.col_x, x), (self.col_n, nrm), (self.col_rot, rot), (self.col_half, half),
+                       (self.col_e, e), (self.col_mu, mu)):
+            fld.from_numpy(a.astype(fdt))
+        self.n_colliders = len(self._colliders)
+
+    def release(self) -> None:
+        if self._tree is not None:
+            self._tree.destroy()
+            self._tree = None
+
+    def add(self, x, v, radius, particle) -> None:
+        """Append debris at world positions x (K,3) m with velocities v (K,3) m/s, radii (K,) m and
+        their particle indices (K,)."""
+        x, v = np.asarray(x, dtype=np.float64).reshape(-1, 3), np.asarray(v, dtype=np.float64).reshape(-1, 3)
+        r, pid = np.asarray(radius, dtype=np.float64).reshape(-1), np.asarray(particle, dtype=np.int32).reshape(-1)
+        k = len(x)
+        if not (v.shape == (k, 3) and r.shape == (k,) and pid.shape == (k,)):
+            raise ConfigError("debris.add", (x.shape, v.shape, r.shape, pid.shape), "matching (K,3), (K,3), (K,), (K,)")
+        if k == 0:
+            return
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v)) and np.all(r > 0.0)):
+            raise ConfigError("debris.add", "non-finite state or radius <= 0", "finite x, v; r > 0 m")
+        if self.count + k > self.capacity:
+            self._grow(self.count + k)
+        self._k_append(self.count, k, x, v, r, pid)
+        self.count += k
+
+    def _grow(self, needed: int) -> None:
+        """A bigger tree (capacity doubles until it fits), the old state copied over."""
+        keep = self.state()
+        pid = self.debris_particle.to_numpy()[: self.count]
+        cap = self.capacity
+        while cap < needed:
+            cap *= 2
+        self.release()
+        self._alloc(cap, max(1, len(self._colliders)))
+        self._upload_colliders()
+        n = self.count
+        self.count = 0
+        if n:
+            self._k_append(0, n, keep["x"], keep["v"], keep["r"], pid)
+        self.count = n
+
+    @ti.kernel
+    def _k_append(self, start: ti.i32, k: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
+                  r: ti.types.ndarray(), pid: ti.types.ndarray()):
+        for i in range(k):
+            self.debris_x[start + i] = ti.math.vec3(x[i, 0], x[i, 1], x[i, 2])
+            self.debris_v[start + i] = ti.math.vec3(v[i, 0], v[i, 1], v[i, 2])
+            self.debris_r[start + i] = r[i]
+            self.debris_particle[start + i] = pid[i]
+
+    def step(self, dt: float) -> None:
+        """One substep of gravity, motion and collider contacts for every debris particle."""
+        if self.count:
+            self._k_step(self.count, self.n_colliders, float(dt), self.gravity)
+
+    @ti.func
+    def _respond(self, i, c, normal, depth):
+        """Move debris i out of collider c by `depth` along `normal`; restitution and friction."""
+        self.debris_x[i] += depth * normal
+        v = self.debris_v[i]
+        vn = v.dot(normal)
+        if vn < 0.0:
+            vt = v - vn * normal
+            vt_len = vt.norm()
+            cut = self.col_mu[c] * (1.0 + self.col_e[c]) * (-vn)
+            scale = 0.0
+            if vt_len > cut:
+                scale = 1.0 - cut / vt_len
+            self.debris_v[i] = scale * vt - self.col_e[c] * vn * normal
+
+    @ti.kernel
+    def _k_step(self, n: ti.i32, ncol: ti.i32, dt: float, g: ti.math.vec3):
+        for i in range(n):
+            self.debris_v[i] += g * dt
+            self.debris_x[i] += self.debris_v[i] * dt
+            r = self.debris_r[i]
+            for c in range(ncol):
+                if self.col_kind[c] == PLANE:
+                    nrm = self.col_n[c]
+                    d = (self.debris_x[i] - self.col_x[c]).dot(nrm) - r
+                    if d < 0.0:
+                        self._respond(i, c, nrm, -d)
+                else:
+                    R = self.col_rot[c]
+                    h = self.col_half[c]
+                    p = R.transpose() @ (self.debris_x[i] - self.col_x[c])
+                    q = ti.math.clamp(p, -h, h)
+                    gap = p - q
+                    dist = gap.norm()
+                    if dist > 0.0:
+                        if dist < r:
+                            self._respond(i, c, R @ (gap / dist), r - dist)
+                    else:  # centre inside the box: out through the nearest face
+                        slack = h - ti.abs(p)
+                        k = 0
+                        if slack[1] < slack[k]:
+                            k = 1
+                        if slack[2] < slack[k]:
+                            k = 2
+                        nl = ti.math.vec3(0.0)
+                        nl[k] = 1.0 if p[k] >= 0.0 else -1.0
+                        self._respond(i, c, R @ nl, slack[k] + r)
+
+    def state(self) -> dict:
+        """Numpy copies of the live debris: x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
+        n = self.count
+        return dict(x=self.debris_x.to_numpy()[:n].astype(np.float64),
+                    v=self.debris_v.to_numpy()[:n].astype(np.float64),
+                    r=self.debris_r.to_numpy()[:n].astype(np.float64),
+                    particle=self.debris_particle.to_numpy()[:n])
+
+
+__all__ = ["DebrisStore"]
