@@ -10,11 +10,11 @@
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from scenes.loader import scene_from_dict
 from sim.fracture_stage import analyse, held_particles
