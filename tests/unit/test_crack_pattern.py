@@ -160,8 +160,8 @@ def pieces(body, an) -> int:
 
 
 def monotone(values, rising: bool) -> bool:
-    d = np.diff(values)
-    return bool(np.all(d >= 0) and values[-1] > values[0]) if rising else bool(np.all(d <= 0) and values[-1] < values[0])
+    d = np.diff(values) if rising else -np.diff(values)
+    return bool(np.all(d >= 0) and d.sum() > 0)
 
 
 def test_pieces_rise_with_speed_and_n_and_fall_with_strength_and_toughness(pane):
