@@ -11,6 +11,7 @@ fixed per process (sim.runtime.init_taichi) and each scene is best measured in a
   4 boundary sampling   (study_sampling)   n = 1, 4, 8
   5 precision           (study_precision)  f32 / f64 (one process each) x substeps
   6 paper scenarios     (study_scenes)     one process per scene; on CUDA too when a device exists
+  7 crack pattern       (study_pattern)    cobweb, SPH vs exact normals, rod vs beam theory, sweeps, auto N
 then writes README.md (machine, versions, the command, tables, plots, readings) and results.json
 (the raw numbers) into --out. Returns 0 when every sweep ran, 1 otherwise (the report is written
 anyway, naming what failed).
@@ -43,6 +44,7 @@ STUDIES = [
     ("sampling", "bench.study_sampling", "Boundary sampling size n", [["--precision", "f32"]]),
     ("precision", "bench.study_precision", "Precision and substeps", [["--precision", "f32"], ["--precision", "f64"]]),
     ("scenes", "bench.study_scenes", "Paper scenarios (Tables 1 and 2)", None),  # runs: one per scene
+    ("pattern", "bench.study_pattern", "Crack pattern: known answers", [[]]),
 ]
 
 

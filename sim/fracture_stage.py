@@ -17,7 +17,10 @@ import numpy as np
 
 from sim.world import BodyInfo, World
 
-MIN_BREAKABLE_PARTICLES = 8  # fragments with fewer particles do not break again
+# A piece breaks again only when it holds at least this many physical-particle volumes of its object:
+# about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
+# least Algorithm 1 can resolve a stress field in; smaller pieces fly and land as they are.
+MIN_BREAKABLE_PARTICLES = 32
 
 
 def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray):
@@ -257,10 +260,12 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     t_split = time.perf_counter()
     del world.bodies[body]
     history = info.history + list(cracks)
+    particle_volume = world.object_particle_volume[info.object_index]
     for nb in new_ids:
-        count = int((ps.body == nb).sum())
-        world.body_material[nb] = int(np.bincount(ps.material[ps.body == nb]).argmax())
-        world.bodies[nb] = BodyInfo(info.object_index, info.breakable and count >= MIN_BREAKABLE_PARTICLES,
+        mine = ps.alive & (ps.body == nb)
+        big = float(ps.volume[mine].sum()) >= MIN_BREAKABLE_PARTICLES * particle_volume
+        world.body_material[nb] = int(np.bincount(ps.material[mine]).argmax())
+        world.bodies[nb] = BodyInfo(info.object_index, info.breakable and big,
                                     bool(world.rigid.body_is_static(nb)), info.thickness, info.resolution, history,
                                     info.bounds)
     record.update(

@@ -210,9 +210,12 @@ class World:
             self.particles.body[sp["start"]:sp["stop"]] = k
         self.physical_count = len(self.particles)
         # per scene object: one copy's mass (kg) and whether it can break (pieces by size class)
-        self.object_mass: dict[int, float] = {}
+        self.object_mass: dict[int, float] = {}  # kg
+        self.object_particle_volume: dict[int, float] = {}  # m^3: mean physical particle volume
         for sp in self._spawn:
-            self.object_mass.setdefault(sp["object"], float(self.particles.mass[sp["start"]:sp["stop"]].sum()))
+            sl = slice(sp["start"], sp["stop"])
+            self.object_mass.setdefault(sp["object"], float(self.particles.mass[sl].sum()))
+            self.object_particle_volume.setdefault(sp["object"], float(self.particles.volume[sl].mean()))
         self.object_breakable = [bool(o.breakable) for o in self.cfg.objects]
 
     def _build_kernels(self) -> None:
