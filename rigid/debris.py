@@ -98,7 +98,8 @@ class DebrisStore:
             raise ConfigError("debris.add", "non-finite state or radius <= 0", "finite x, v; r > 0 m")
         if self.count + k > self.capacity:
             self._grow(self.count + k)
-        self._k_append(self.count, k, x, v, r, pid)
+        fdt = numpy_float()  # the kernel's arrays in the run's precision (no lossy cast inside)
+        self._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
         self.count += k
 
     def _grow(self, needed: int) -> None:
@@ -114,7 +115,8 @@ class DebrisStore:
         n = self.count
         self.count = 0
         if n:
-            self._k_append(0, n, keep["x"], keep["v"], keep["r"], pid)
+            fdt = numpy_float()
+            self._k_append(0, n, keep["x"].astype(fdt), keep["v"].astype(fdt), keep["r"].astype(fdt), pid)
         self.count = n
 
     @ti.kernel

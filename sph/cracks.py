@@ -675,9 +675,15 @@ def analyse_impact(
     g_eps = gmean(eps) * F
     g_sig = gmean(sig) * F
     T1 = gmean(sig_plus)
-    Pi = np.eye(3) - np.outer(n, n)
-    if use == "plate":  # thin-plate theory: plane stress (sigma_iz = 0); drop out-of-plane noise
-        T1 = Pi @ T1 @ Pi
+    # plane stress where the wall is thin: across a plate (its normal n), or across a thin body
+    # struck on its edge (a coin on its rim: its thin in-plane axis), whose free faces carry no load;
+    # a half-space field's tension along that axis would split the body into slices
+    Pi = np.eye(3)
+    if use == "plate":  # thin-plate theory (sigma_iz = 0); drops the out-of-plane noise too
+        Pi = np.eye(3) - np.outer(n, n)
+    elif use == "halfspace" and wall.width < SLENDER_WIDTH * wall.length:
+        Pi = np.eye(3) - np.outer(wall.frame[1], wall.frame[1])
+    T1 = Pi @ T1 @ Pi
     U_g = np.bincount(grp, weights=U1, minlength=N) * F * F if m else np.zeros(N)
     pvals = np.zeros((N, 3))
     pdirs = np.zeros((N, 3))
@@ -693,7 +699,7 @@ def analyse_impact(
     # Rankine is a point criterion: a group fires where the largest tensile principal stress of one
     # of its members exceeds the strength (the crack starts at the peak, on the far face of a bent
     # wall or at the edge of a Hertz contact); the group mean gives the crack's direction (line 16)
-    member_plus = Pi @ sig_plus @ Pi if use == "plate" else sig_plus
+    member_plus = Pi @ sig_plus @ Pi
     lam = np.linalg.eigvalsh(member_plus)[:, -1] if m else np.zeros(0)
     peak1 = np.zeros(N)
     np.maximum.at(peak1, grp, lam)

@@ -119,11 +119,15 @@ def test_a_crack_changes_direction_in_the_other_material():
         stopped = [c for c in result.cracks if "crossing" not in c.source]
         crossing = [c for c in result.cracks if "crossing.material1" in c.source]
         assert crossing, [c.source for c in result.cracks]
+        turned = []
         for c in crossing:
             near = int(np.argmin(np.linalg.norm(ps.centroid - c.point, axis=1)))
             assert ps.material[near] == 1 and c.r_inner == 0.0
             parent = next(s for s in stopped if c.source.startswith(s.source + "."))
-            angle = math.degrees(math.acos(min(1.0, abs(float(c.normal @ parent.normal)))))
-            assert angle > 10.0
+            turned.append(math.degrees(math.acos(min(1.0, abs(float(c.normal @ parent.normal))))))
+            # the stopped crack ends at the crossing, which lies on its plane
+            assert abs(float((c.point - parent.point) @ parent.normal)) < 1e-9
+            assert parent.r_outer <= np.linalg.norm(c.point - parent.point) + 1e-9
+        assert max(turned) > 10.0, turned  # the black half's own analysis deflects the crack
     finally:
         w.release()
