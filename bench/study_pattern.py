@@ -168,6 +168,8 @@ def render(res: dict, out: Path) -> str:
         return ", ".join(f"{fmt(x, 'g3')}{unit}: {n}" for x, n in sw[key])
 
     auto = ", ".join(f"{v:g} m/s: {n}" for v, n in res["auto"])
+    ratios = [r["v_th"] / r["v_beam"] for r in res["rods"]]
+    lo_ratio, hi_ratio = min(ratios), max(ratios)
     return f"""## 7. Crack pattern: known answers (issue 14)
 
 **Known answers.** A plate struck at its centre breaks in a cobweb: N radial cracks around the point
@@ -193,11 +195,10 @@ by strength {line('strength', ' MPa')}; by toughness {line('toughness', ' J/m^2'
 
 **Reading.** The cobweb holds for every N; an oblique blow leans, but does not fold, the pattern
 because the frame is the struck face's (tests/regression/test_fracture_world.py). The rod's
-threshold is {min(r['v_th'] / r['v_beam'] for r in res['rods']):.2f}-{max(r['v_th'] / r['v_beam'] for r in res['rods']):.2f}
-times beam theory's, whatever the kernel: the analysed set sweeps the kernel through the rod, so the
-far side's tension is seen (a little above the estimate: the members' centroids lie inside the
-surface fibre). A pane analysis costs tens of milliseconds on the host; the stretched kernel on the
-rod gathers many more neighbour pairs and costs more.
+threshold is {lo_ratio:.2f}-{hi_ratio:.2f} times beam theory's, whatever the kernel: the analysed set
+sweeps the kernel through the rod, so the far side's tension is seen (a little above the estimate:
+the members' centroids lie inside the surface fibre). A pane analysis costs tens of milliseconds on
+the host; the stretched kernel on the rod gathers many more neighbour pairs and costs more.
 """
 
 

@@ -78,7 +78,8 @@ def check_impact(r: dict, speed: float) -> None:
 
 
 def pane_case(speed: float, frames_after: int = 3) -> dict:
-    return run_impact("glass_r3", [f"objects.ball.velocity=[0,0,-{speed}]", *PANE_FRICTIONLESS], speed, frames_after)
+    return run_impact("glass_r3", [f"objects.ball.velocity=[0,0,-{speed}]", "objects.ball.position=[0.02,0.32,0.08]",
+                                   *PANE_FRICTIONLESS], speed, frames_after)
 
 
 def pot_case(speed: float, frames_after: int = 3) -> dict:
