@@ -144,9 +144,16 @@ def k_derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
         lx = q_to_mat(s.body_q[b]) @ s.bp_local[i]
         s.bp_x[i] = s.body_x[b] + lx
         sw = 0.0
+        disp = vec3(0.0)
+        arc = 0.0
         if s.body_active[b] == 1:
-            sw = dt * (s.body_v[b].norm() + s.body_w[b].norm() * lx.norm())
+            wdt = s.body_w[b].norm() * dt
+            sw = dt * s.body_v[b].norm() + wdt * lx.norm()
+            disp = dt * (s.body_v[b] + s.body_w[b].cross(lx))
+            arc = 0.5 * wdt * wdt * lx.norm()
         s.bp_sweep[i] = sw
+        s.bp_disp[i] = disp
+        s.bp_arc[i] = arc
         ti.atomic_max(s.max_reach[None], s.bp_radius[i] + sw)
 
 
@@ -277,7 +284,11 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                         aj = s.body_active[bj]
                         if bj != bi and (ai == 1 or aj == 1):
                             gap = (xi - s.bp_x[j]).norm() - ri - s.bp_radius[j]
-                            if gap < margin + swi + s.bp_sweep[j]:
+                            # speculative by RELATIVE motion: how far the pair can close this step; the
+                            # absolute sweeps (swi + sweep_j) only bound it, and pieces of a body that
+                            # just split move together (the grid search above keeps using the bound)
+                            closing = (s.bp_disp[i] - s.bp_disp[j]).norm() + s.bp_arc[i] + s.bp_arc[j]
+                            if gap < margin + ti.min(closing, swi + s.bp_sweep[j]):
                                 if ti.static(write):
                                     s.ct_a[base + cnt] = i
                                     s.ct_b[base + cnt] = j

@@ -110,9 +110,11 @@ class RigidStore:
         # ---- boundary spheres: changing data ----
         self.bp_x = vec3.field()  # (NS,) m: world centre at the start of the step
         self.bp_sweep = ti.field(float)  # (NS,) m: distance the sphere may travel this step
+        self.bp_disp = vec3.field()  # (NS,) m: its displacement this step at the start velocities (v + w x r) dt
+        self.bp_arc = ti.field(float)  # (NS,) m: bound on how far a rotation's arc leaves that line, (|w| dt)^2 r / 2
         self.bp_cell = ivec3.field()  # (NS,) -: grid cell
         self.bp_hash = ti.field(ti.i32)  # (NS,) -: hash bucket of the cell
-        dense(ns, self.bp_x, self.bp_sweep, self.bp_cell, self.bp_hash)
+        dense(ns, self.bp_x, self.bp_sweep, self.bp_disp, self.bp_arc, self.bp_cell, self.bp_hash)
         self.bp_ct_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of this step's contacts by sphere
         self.bp_pc_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of the previous step's contacts
         dense(ns + 1, self.bp_ct_start, self.bp_pc_start)

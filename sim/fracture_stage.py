@@ -235,20 +235,19 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     if len(ps) > n_old:
         parent = ps.parent[n_old:]
         world.kernel_G = np.concatenate([world.kernel_G, world.kernel_G[parent]])
-    debris = rep.debris
-    if len(debris):
-        debris = debris[ps.alive[debris]]
-        world.debris_pieces += len(debris)
-        if world.cfg.has("debris"):  # free spheres that keep the body's velocity field (v + w x r)
-            x_w, v_w = _world_motion(world, body, ps.centroid[debris])
-            world.debris.add(x_w, v_w, ps.radius[debris], debris)
-        else:  # shattered particles leave the simulation; their mass is booked
-            world.debris_mass += float(ps.mass[debris].sum())
-            ps.alive[debris] = False
-        ps.body[debris] = -1
-    world.particles = ps
+    debris = rep.debris[ps.alive[rep.debris]] if len(rep.debris) else rep.debris
     ids = np.flatnonzero(ps.alive & (ps.body == body))
-    labels = rep.labels[ids]
+    ids = ids[~np.isin(ids, debris)]
+    # a piece of one particle moves as debris too: a rigid body of one tet would add a boundary sphere
+    # and contacts for what is a grain (the pieces count is the same either way)
+    sizes = np.bincount(rep.labels[ids]) if len(ids) else np.zeros(0, dtype=np.int64)
+    single = sizes[rep.labels[ids]] == 1 if len(ids) else np.zeros(0, dtype=bool)
+    debris = np.concatenate([debris, ids[single]])
+    ids = ids[~single]
+    if len(debris):
+        _free_particles(world, body, ps, debris)
+    world.particles = ps
+    labels = np.unique(rep.labels[ids], return_inverse=True)[1] if len(ids) else rep.labels[ids]
     new_ids = []
     if len(ids):
         held = None
@@ -278,6 +277,19 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     world.timers.total["fracture.cut"] += t_cut - t0
     world.timers.total["fracture.split"] += t_split - t_cut
     return record
+
+
+def _free_particles(world: World, body: int, ps, idx: np.ndarray) -> None:
+    """Particles `idx` of `body` leave it as debris: free spheres keeping the body's velocity field
+    (v + w x r) with the `debris` effect; without it they leave the simulation, their mass booked."""
+    world.debris_pieces += len(idx)
+    if world.cfg.has("debris"):
+        x_w, v_w = _world_motion(world, body, ps.centroid[idx])
+        world.debris.add(x_w, v_w, ps.radius[idx], idx)
+    else:
+        world.debris_mass += float(ps.mass[idx].sum())
+        ps.alive[idx] = False
+    ps.body[idx] = -1
 
 
 def _held_labels(world: World, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
