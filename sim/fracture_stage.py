@@ -238,10 +238,12 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     debris = rep.debris[ps.alive[rep.debris]] if len(rep.debris) else rep.debris
     ids = np.flatnonzero(ps.alive & (ps.body == body))
     ids = ids[~np.isin(ids, debris)]
-    # a piece of one particle moves as debris too: a rigid body of one tet would add a boundary sphere
-    # and contacts for what is a grain (the pieces count is the same either way)
-    sizes = np.bincount(rep.labels[ids]) if len(ids) else np.zeros(0, dtype=np.int64)
-    single = sizes[rep.labels[ids]] == 1 if len(ids) else np.zeros(0, dtype=bool)
+    # with the 'debris' effect a piece of one particle moves as debris too: a rigid body of one tet
+    # would add a boundary sphere and contacts for what is a grain (the pieces count is the same);
+    # without it (a teaching scene cutting one tet) such a piece stays a body
+    single = np.zeros(len(ids), dtype=bool)
+    if len(ids) and world.cfg.has("debris"):
+        single = np.bincount(rep.labels[ids])[rep.labels[ids]] == 1
     debris = np.concatenate([debris, ids[single]])
     ids = ids[~single]
     if len(debris):
