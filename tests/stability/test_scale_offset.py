@@ -68,7 +68,8 @@ def fragments(raw: dict, offset=(0.0, 0.0, 0.0), frames: int = 8) -> dict:
         mass = np.array([w.rigid.body_mass(int(b)) for b in ids])
         x = st.x[ids] - np.asarray(offset)
         order = np.lexsort((x[:, 0], mass))
-        return dict(events=len(w.events), count=w.fragment_count(), alive=int(w.particles.alive.sum()),
+        # count: the moving pieces (bodies); debris: the shattered grains, counted apart (World.pieces)
+        return dict(events=len(w.events), count=len(ids), debris=w.debris_pieces, alive=int(w.particles.alive.sum()),
                     mass=mass[order], x=x[order], physical=w.physical_count)
     finally:
         w.release()
@@ -102,6 +103,7 @@ def test_translated_scene_gives_the_same_fragments(files, reference, offset):
     d = (offset, offset, offset)
     far = fragments(slab_scene(files["m"], "m", d), d)
     assert far["count"] == reference["count"] and far["alive"] == reference["alive"]
+    assert far["debris"] == reference["debris"]
     assert np.abs(far["mass"] - reference["mass"]).max() <= 1e-7 * reference["mass"].max()
     assert np.abs(far["x"] - reference["x"]).max() <= 1e-8
 
@@ -115,7 +117,8 @@ from tests.stability.test_scale_offset import fragments, slab_scene
 out = {{}}
 for d in (0.0, 10.0, 1000.0):
     r = fragments(slab_scene({mesh!r}, "m", (d, d, d)), (d, d, d))
-    out[str(d)] = dict(count=r["count"], alive=r["alive"], mass=r["mass"].tolist(), x=r["x"].tolist())
+    out[str(d)] = dict(count=r["count"], debris=r["debris"], alive=r["alive"], mass=r["mass"].tolist(),
+                       x=r["x"].tolist())
 print(json.dumps(out))
 """
 
@@ -124,16 +127,19 @@ print(json.dumps(out))
 def test_translated_scene_in_single_precision(files):
     """f32 (the default of `main.py run`): positions are resolved to ulp(|x|), so the contact point and
     the cut move with the offset. At 10 m: masses within 1e-4 relative, centres within 0.5 mm; at 1e3 m
-    the fragment count holds but masses differ by up to 1e-2 and centres by up to 2 cm (measured: 7e-4
-    and 5 mm) - docs/robustness.md: keep f32 scenes near the origin, or run with --precision f64."""
+    the body count holds (the shattered grains within 2%) but masses differ by up to 3e-2 and centres by
+    up to 2 cm (measured: 1.7e-2; the crack point is the foot of the striker's centre, which f32 keeps to
+    6e-5 m there) - docs/robustness.md: keep f32 scenes near the origin, or run with --precision f64."""
     r = subprocess.run([sys.executable, "-c", F32_PROBE.format(root=str(ROOT), mesh=files["m"])], cwd=ROOT,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     res = json.loads(r.stdout.strip().splitlines()[-1])
     ref = res["0.0"]
-    for d, mass_tol, x_tol in (("10.0", 1e-4, 5e-4), ("1000.0", 1e-2, 2e-2)):
+    for d, mass_tol, x_tol in (("10.0", 1e-4, 5e-4), ("1000.0", 3e-2, 2e-2)):
         far = res[d]
         assert far["count"] == ref["count"]
+        # a grain at the edge of the shattered zone may fall either side of r_inner at ulp(|x|)
+        assert abs(far["debris"] - ref["debris"]) <= max(3, 0.02 * ref["debris"])
         m, m0 = np.array(far["mass"]), np.array(ref["mass"])
         assert np.abs(m - m0).max() <= mass_tol * m0.max()
         assert np.abs(np.array(far["x"]) - np.array(ref["x"])).max() <= x_tol

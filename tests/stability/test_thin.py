@@ -90,10 +90,11 @@ def test_wire_struck_by_a_ball(speed):
 
 @pytest.mark.slow
 def test_pane_shattering_into_single_particle_bodies():
-    """With the 'debris' effect every shattered particle becomes a one-particle body (about 1,800 of
-    them at 50 m/s): the same criteria hold for all of them over 15 frames."""
+    """With the 'debris' effect every shattered particle moves on as a free sphere (rigid/debris.py; a
+    few hundred at 50 m/s): none leaves the simulation, they are counted as pieces, and the same
+    criteria hold for the bodies over 15 frames."""
     speed = 50.0
     r = run_thin(pane_scene(speed, effects=(*FRACTURE, "debris")), speed, frames=15)
-    assert r["fragments"] > 1000
+    assert r["fragments"] > 200
     assert r["mass"]["debris_removed_kg"] == 0.0
     check_thin(r, speed)
