@@ -5,22 +5,27 @@ hundred particles, everything is vectorised, no Python loop per particle):
 
  1. Contact (sph/contact.py): the Hertz impact of the two bodies gives the peak force F, the contact
     radius a and area S = pi a^2. The struck body's (E1, nu1) is the Hill average of its stiffness.
+    Where the struck wall bends (plate, beam; step 3) its compliance E_1 is in series with the Hertz
+    contact (sph/structure.py, series_impact): 1/2 m* v^2 = 2/5 F^(5/3) k_H^(-2/3) + E_1 F^2.
  2. Algorithm 1, lines 1-6: the kernel G_P of the particle nearest to P; the analysed set N_p is
-    every particle with |G_P (x - P)| < 1.
+    every particle with |G_P (x - P)| < 1; for a wall that bends, G_P's kernel swept along the normal
+    from P to the wall's far face (so the far side's bending tension is analysed).
  3. Line 7 ("virtual particles", Fig. 2): every member and every SPH neighbour of a member gets the
     contact displacement, in the frame (e1, e2, n) at P (n = inward normal):
       field 'halfspace': Boussinesq (regularised, sph/contact.py);
       field 'plate':     the Kirchhoff plate under a central load (sph/contact.py);
-      field 'auto':      'plate' where the body is thinner than the analysed neighbourhood, i.e. the
-                         depth of the body below P, d_n, is less than rho_P; else 'halfspace'.
-                         d_n: the depths (x - P).n of the particles within one tet edge (of the
-                         nearest particle) of the normal line through P, sorted, up to the first gap
-                         wider than two tet edges (the far
-                         wall of a hollow body is not the struck wall), plus the nearest particle's
-                         radius. The plate thickness is min(thickness, d_n), its mid-surface lies at
-                         the mean of the column's smallest and largest centroid depth (so P may sit
-                         on or slightly inside the surface), its support radius L is the body's
-                         largest in-plane distance from P (at least 2 rho_P).
+      field 'beam':      an Euler-Bernoulli beam along the wall's long axis (sph/structure.py);
+      field 'auto':      from the struck wall (StruckWall): the particles between the struck face
+                         and the wall's far face at depth d_n, with their in-plane spread. d_n: the
+                         depths (x - P).n of the particles within one tet edge (of the nearest
+                         particle) of the normal line through P, sorted, up to the first gap wider
+                         than two tet edges (the far wall of a hollow body is not the struck wall),
+                         plus the nearest particle's radius. A wall thinner than 1/4 of its length
+                         bends: a 'beam' when it is also narrow (width < 0.35 length, < 3 d_n), else
+                         a 'plate'; otherwise a 'halfspace'. The plate thickness is min(thickness,
+                         d_n), its mid-surface at the mean of the column's smallest and largest
+                         centroid depth, its support radius L that of a disc of the wall's area
+                         (at least 2 rho_P).
     Regularisation length l = max(a, r_P) (r_P: radius of the nearest particle): below the particle
     size the field is not resolved by the SPH gradient anyway, and with a <= r_P the analysis is
     exactly linear in F (the threshold speed is then analytic, `threshold_speed`).
@@ -56,12 +61,14 @@ hundred particles, everything is vectorised, no Python loop per particle):
     eps, sigma; the energy U_g = sum_i U_i over the members; and the TENSILE stress
     T_g = weighted mean of sigma_i^+ (sigma^+ = sum_k max(s_k, 0) v_k v_k^T, the tensile part as in
     O'Brien & Hodgins 1999). Rankine (lines 15-16, with the principal STRESS that the paper's text
-    names; line 15 prints lambda_max(eps)): the group fires when lambda_max(T_g) (sph.eigen) exceeds
-    the material's tensile strength; the crack normal is its eigenvector. Why T_g and not the mean
-    stress: a plate's bending stress changes sign through the thickness, so its mean over members
-    spanning the thickness is ~0; a half-space's mean stress is compressive (docs/notes_cracks.md).
-    For the plate field T_g is projected on the tangent plane (plate theory is plane stress; the
-    out-of-plane components are discretisation error of the thin neighbourhood).
+    names; line 15 prints lambda_max(eps)) is a point criterion: the group fires when the largest
+    tensile principal stress of one of its members exceeds the material's tensile strength (the
+    crack starts at the peak); the crack normal is the eigenvector of lambda_max(T_g) (sph.eigen).
+    Why T_g and not the mean stress: a plate's bending stress changes sign through the thickness,
+    so its mean over members spanning the thickness is ~0; a half-space's mean stress is compressive
+    (docs/notes_cracks.md). Plane stress where the wall is thin: for the plate field the stresses
+    are projected on the tangent plane, and for a half-space struck on the edge of a thin body (a
+    coin on its rim) off the thin in-plane axis.
  6. Crack region: a half-disc through P with that normal, on the side s_g = b_k projected onto the
     crack plane (normalised); if b_k is within ~6 degrees of the normal, the inward normal n
     projected instead; N = 1 gives a full disc (side None).
@@ -77,7 +84,8 @@ hundred particles, everything is vectorised, no Python loop per particle):
  8. U_limit, r_inner (Sect. 4.2, read with the poly6 kernel's cube): the released energy
     U = sum_g U'_g is spread as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U, h = rho_P.
     A particle shatters where u exceeds the energy density needed to free it completely, i.e. to
-    create crack area equal to its surface: u_limit = G_c A_P / V_P (regular tet: A = sqrt3 e^2).
+    create crack area equal to half its surface (each face it frees is one side of a crack it shares
+    with a neighbour): u_limit = G_c A_P / (2 V_P) (regular tet: A = sqrt3 e^2).
     r_inner^2 = h^2 - (64 pi h^9 u_limit / (315 U))^(1/3) when positive, else r_inner = 0. Cracks
     carry r_inner only if at least one group fired.
 
