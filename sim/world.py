@@ -405,19 +405,22 @@ class World:
         particle), `small` (under SMALL_PIECE of its object's mass), `large`."""
         if "rigid" not in self.stages:
             return dict(debris=0, small=0, large=len(self._spawn), total=len(self._spawn))
+        alive = self.rigid.body_state().alive
         if self.mode is None:  # nothing can break: the pieces are the moving bodies
-            n = int(sum(1 for b, info in self.bodies.items() if self.rigid.body_state().alive[b] and not info.static))
+            n = int(sum(1 for b, info in self.bodies.items() if alive[b] and not info.static))
             return dict(debris=0, small=0, large=n, total=n)
         ps = self.particles
-        alive = self.rigid.body_state().alive
+        held = ps.alive & (ps.body >= 0)
+        n_body = max(int(ps.body.max()) + 1, len(alive), 1)
+        count = np.bincount(ps.body[held], minlength=n_body)  # particles per body
+        mass = np.bincount(ps.body[held], weights=ps.mass[held], minlength=n_body)  # kg per body
         counts = dict(debris=self.debris_pieces, small=0, large=0)
         for b, info in self.bodies.items():
             if not alive[b] or not self.object_breakable[info.object_index]:
                 continue
-            mine = ps.body == b
-            if int(mine.sum()) == 1:
+            if count[b] == 1:
                 counts["debris"] += 1
-            elif float(ps.mass[mine].sum()) < SMALL_PIECE * self.object_mass[info.object_index]:
+            elif mass[b] < SMALL_PIECE * self.object_mass[info.object_index]:
                 counts["small"] += 1
             else:
                 counts["large"] += 1
