@@ -105,8 +105,8 @@ def test_pot_on_the_floor(speed):
 @pytest.mark.slow
 @pytest.mark.parametrize("speed,frames_after", [(50.0, 3), (200.0, 1)])
 def test_pot_on_the_floor_fast(speed, frames_after):
-    """50 and 200 m/s: correct but slow (see test_co_moving_bodies_make_few_contacts): the two halves
-    of the pot fly off together at 40 m/s and every pair of their spheres is a speculative contact."""
+    """50 and 200 m/s: the two halves of the pot fly off together at 40 m/s; with speculative contacts
+    from relative motion they no longer make a contact for every pair of their spheres."""
     r = pot_case(speed, frames_after)
     check_impact(r, speed)
 
