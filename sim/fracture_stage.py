@@ -23,10 +23,10 @@ from sim.world import BodyInfo, World
 MIN_BREAKABLE_PARTICLES = 32
 
 
-def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray):
+def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray, state=None):
     from rigid.quat import quat_to_matrix
 
-    st = world.rigid.body_state()
+    st = world.rigid.body_state() if state is None else state
     rot = quat_to_matrix(st.q[body])
     com = world.rigid.body_ref_com(body)
     return rot.T @ (np.asarray(point) - st.x[body]) + com, rot.T @ np.asarray(normal)
@@ -136,12 +136,10 @@ def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: 
     return point + foot, inward
 
 
-def held_particles(obj, bounds, x: np.ndarray, static: bool) -> np.ndarray:
-    """(N,) bool: particles at rest positions x held by the scene (within the object's held border
-    of its rest bounding box, along the axes the border does not swallow). A static object without a
-    held border is held everywhere."""
-    if not static:
-        return np.zeros(len(x), dtype=bool)
+def held_particles(obj, bounds, x: np.ndarray) -> np.ndarray:
+    """(N,) bool: particles of a static object at rest positions x held by the scene (within the
+    object's held border of its rest bounding box, along the axes the border does not swallow). A
+    static object without a held border is held everywhere."""
     if obj.held_border <= 0:
         return np.ones(len(x), dtype=bool)
     lo, hi = bounds
@@ -149,14 +147,17 @@ def held_particles(obj, bounds, x: np.ndarray, static: bool) -> np.ndarray:
     return ((x - lo < obj.held_border) | (hi - x < obj.held_border))[:, axes].any(1)
 
 
-def contact_in_reference(world: World, body: int, other: int, point_w: np.ndarray, normal_w: np.ndarray) -> dict:
+def contact_in_reference(world: World, body: int, other: int, point_w: np.ndarray, normal_w: np.ndarray,
+                         state=None) -> dict:
     """The contact as the struck body saw it at that substep, in its reference frame: point, inward
     normal and the striker's centre of mass (None for a collider or a static body). Recorded when
-    the contact happens: by the end of the frame both bodies have moved on."""
-    point, normal = _to_reference(world, body, point_w, normal_w)
+    the contact happens: by the end of the frame both bodies have moved on. `state`: the substep's
+    rigid.world.BodyState when the caller has it (one download for all the contacts of a substep)."""
+    st = world.rigid.body_state() if state is None else state
+    point, normal = _to_reference(world, body, point_w, normal_w, st)
     striker = None
     if other >= 0 and not world.rigid.body_is_static(other):
-        striker, _ = _to_reference(world, body, world.rigid.body_state().x[other], np.zeros(3))
+        striker, _ = _to_reference(world, body, st.x[other], np.zeros(3), st)
     return dict(point=point, normal=normal, striker=striker)
 
 
@@ -296,7 +297,7 @@ def _free_particles(world: World, body: int, ps, idx: np.ndarray) -> None:
 
 def _held_labels(world: World, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Per label: True when the fragment touches the held border of a static object (a window frame)."""
-    near = held_particles(obj, obj_bounds, world.particles.centroid[ids], True)
+    near = held_particles(obj, obj_bounds, world.particles.centroid[ids])
     held = np.zeros(int(labels.max()) + 1, dtype=bool)
     held[labels[near]] = True
     return held

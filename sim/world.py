@@ -347,6 +347,7 @@ class World:
 
         pairs = self.rigid.contact_events().by_body_pair()
         threshold = self.cfg.scene.impact_threshold
+        state = None  # the bodies' poses, downloaded once and only when an impact is kept
         for k in range(len(pairs["impulse"])):
             speed = -float(pairs["speed"][k])  # closing speed, m/s
             if speed <= threshold:
@@ -360,9 +361,10 @@ class World:
                 best = impacts.get(struck)
                 if best is None or speed > best["speed"]:
                     point, normal = pairs["point"][k].copy(), sign * pairs["normal"][k]
+                    state = self.rigid.body_state() if state is None else state
                     impacts[struck] = dict(
                         other=other, speed=speed, point=point, normal=normal, impulse=float(pairs["impulse"][k]),
-                        reference=contact_in_reference(self, struck, other, point, normal),
+                        reference=contact_in_reference(self, struck, other, point, normal, state),
                     )
 
     def _fracture(self, impacts: dict[int, dict]) -> None:
