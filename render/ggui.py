@@ -174,6 +174,9 @@ class GGUIDrawer:
         dist = LIGHT_DISTANCE_FAR_PLANES * max(float(camera.far), 1.0)
         ti_scene.point_light(tuple(float(c) for c in camera.target + lt.light_dir * dist),
                              tuple(float(c) for c in lt.light_color))
+        if np.any(lt.fill_color > 0.0):  # the studio look's fill light; GGUI has no shadows or highlights
+            ti_scene.point_light(tuple(float(c) for c in camera.target + lt.fill_dir * dist),
+                                 tuple(float(c) for c in lt.fill_color))
         grey = (0.5, 0.5, 0.5)  # GGUI's uniform colour argument, unused with per-vertex colours
         no_indices = get_field_info(None)
         if scene.n_tris:

@@ -34,3 +34,19 @@ def ground_quad(height: float = 0.0, half_size: float = 1.0, center_xz=(0.0, 0.0
     v = np.array([[cx - s, height, cz - s], [cx + s, height, cz - s], [cx + s, height, cz + s],
                   [cx - s, height, cz + s]])
     return v, np.array([[0, 2, 1], [0, 3, 2]], dtype=np.int64)
+
+
+def sphere_mesh(radius: float, center=(0.0, 0.0, 0.0), points: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """(verts, faces) of a closed polyhedron inscribed in a sphere (m): the convex hull of a Fibonacci
+    lattice of `points` points, faces turned outward."""
+    from scipy.spatial import ConvexHull
+
+    k = np.arange(points) + 0.5
+    polar = np.arccos(1.0 - 2.0 * k / points)
+    azimuth = np.pi * (1.0 + 5.0**0.5) * k
+    unit = np.stack([np.sin(polar) * np.cos(azimuth), np.cos(polar), np.sin(polar) * np.sin(azimuth)], 1)
+    faces = ConvexHull(unit).simplices.astype(np.int64)
+    a, b, c = unit[faces[:, 0]], unit[faces[:, 1]], unit[faces[:, 2]]
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), a + b + c) < 0.0
+    faces[inward] = faces[inward][:, [0, 2, 1]]
+    return np.asarray(center, dtype=np.float64) + radius * unit, faces

@@ -43,13 +43,27 @@ class Lighting:
     ambient: np.ndarray = field(default_factory=lambda: np.array([0.28, 0.28, 0.28]))
     background: np.ndarray = field(default_factory=lambda: np.array([0.13, 0.14, 0.17]))
     two_sided: bool = False  # False: max(n.l, 0) with outward normals; True: |n.l| (GGUI's two_sided)
+    # the studio look (`Lighting.studio()`; the plain defaults keep GGUI's formula above, which tests use)
+    fill_dir: np.ndarray = field(default_factory=lambda: np.array([-0.6, 0.35, -0.4]))  # towards the fill light
+    fill_color: np.ndarray = field(default_factory=lambda: np.zeros(3))  # no shadows from the fill light
+    shadows: bool = False  # the key light casts shadows (rasteriser: a filtered shadow map)
+    specular: bool = False  # Blinn-Phong highlights of the key light, by each surface's roughness
+    antialias: bool = False  # smooth the edges between primitives (rasteriser)
+
+    @classmethod
+    def studio(cls) -> "Lighting":
+        """The look of headless frames: key light with soft shadows, a fill light, highlights, smooth edges."""
+        return cls(light_dir=np.array([0.45, 1.0, 0.35]), light_color=np.array([0.78, 0.76, 0.72]),
+                   ambient=np.array([0.22, 0.23, 0.26]), fill_color=np.array([0.16, 0.17, 0.2]),
+                   background=np.array([0.15, 0.16, 0.19]), shadows=True, specular=True, antialias=True)
 
     def __post_init__(self) -> None:
-        d = np.asarray(self.light_dir, dtype=np.float64).reshape(3)
-        if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
-            raise ConfigError("render.light_dir", d.tolist(), "a finite non-zero 3-vector")
-        self.light_dir = d / np.linalg.norm(d)
-        for name in ("light_color", "ambient", "background"):
+        for name in ("light_dir", "fill_dir"):
+            d = np.asarray(getattr(self, name), dtype=np.float64).reshape(3)
+            if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
+                raise ConfigError(f"render.{name}", d.tolist(), "a finite non-zero 3-vector")
+            setattr(self, name, d / np.linalg.norm(d))
+        for name in ("light_color", "ambient", "background", "fill_color"):
             c = np.asarray(getattr(self, name), dtype=np.float64).reshape(3)
             if not np.all((c >= 0.0) & (c <= 1.0)):
                 raise ConfigError(f"render.{name}", c.tolist(), "RGB components in [0, 1]")
@@ -67,13 +81,16 @@ class MeshPart:
     """One triangle mesh on the host: vertices in its body's reference frame (or in the world for
     body -1), outward faces, body id (one int or one per vertex), colours: None (palette colour of
     the body), one RGB, (V, 3) per vertex or (F, 3) per face; when V == F, `color_per` says which
-    ("vertex" or "face"; "auto" takes per-face)."""
+    ("vertex" or "face"; "auto" takes per-face). `roughness` (0 mirror-like .. 1 matte) sets the
+    highlight, `opacity` < 1 draws the part see-through (glass)."""
 
     verts: np.ndarray  # (V, 3) m
     faces: np.ndarray  # (F, 3) int
     body: int | np.ndarray = -1
     colors: np.ndarray | None = None
     color_per: str = "auto"
+    roughness: float = 0.7
+    opacity: float = 1.0
 
 
 def _pow2_capacity(n: int) -> int:
@@ -188,9 +205,11 @@ class RenderScene:
             self.corner_ref = vec3.field()  # (3T,) m: corner position in its body's reference frame
             self.corner_body = ti.field(ti.i32)  # (3T,) -: body id of the corner, -1 = static world geometry
             self.corner_color = vec3.field()  # (3T,) -: linear RGB in [0, 1]
+            self.corner_look = ti.math.vec2.field()  # (3T,) -: (roughness, opacity) of the corner's part
             self.corner_x = vec3.field()  # (3T,) m: world position (changing, written by update())
             self.corner_n = vec3.field()  # (3T,) -: unit world normal of the corner's face (changing)
-            for f in (self.corner_ref, self.corner_body, self.corner_color, self.corner_x, self.corner_n):
+            for f in (self.corner_ref, self.corner_body, self.corner_color, self.corner_look, self.corner_x,
+                      self.corner_n):
                 fb.dense(ti.i, nc).place(f)
         elif kind == "pose":
             self.pose_x = vec3.field()  # (B,) m: world position of the body's centre of mass
@@ -230,9 +249,12 @@ class RenderScene:
     # ---- surfaces --------------------------------------------------------------------------------
     def set_surfaces(self, parts: list[MeshPart]) -> None:
         """Replace all surfaces (after a scene build or a fracture event); bumps surface_version."""
-        refs, bodies, colors = [], [], []
+        refs, bodies, colors, looks = [], [], [], []
         for k, part in enumerate(parts):
             where = f"render.surfaces[{k}]"
+            if not (0.0 <= part.roughness <= 1.0 and 0.0 < part.opacity <= 1.0):
+                raise ConfigError(f"{where}.look", (part.roughness, part.opacity),
+                                  "roughness in [0, 1] and opacity in (0, 1]")
             v = np.asarray(part.verts, dtype=np.float64).reshape(-1, 3)
             f = np.asarray(part.faces, dtype=np.int64).reshape(-1, 3)
             if len(f) and (f.min() < 0 or f.max() >= len(v)):
@@ -243,9 +265,11 @@ class RenderScene:
             refs.append(v[f])
             bodies.append(body[f])
             colors.append(_colors_for(MeshPart(v, f, body, part.colors, part.color_per), where))
+            looks.append(np.broadcast_to([part.roughness, part.opacity], (3 * len(f), 2)))
         ref = np.concatenate(refs).reshape(-1, 3) if refs else np.zeros((0, 3))
         body = np.concatenate(bodies).reshape(-1) if bodies else np.zeros(0, np.int64)
         col = np.concatenate(colors).reshape(-1, 3) if colors else np.zeros((0, 3))
+        look = np.concatenate(looks).reshape(-1, 2) if looks else np.zeros((0, 2))
         n_tri = len(ref) // 3
         self._alloc("surf", n_tri)
         nc = 3 * self.cap["surf"]
@@ -259,6 +283,7 @@ class RenderScene:
         self.corner_ref.from_numpy(pad(ref, fdt))
         self.corner_body.from_numpy(pad(body, np.int32, -1))
         self.corner_color.from_numpy(pad(col, fdt))
+        self.corner_look.from_numpy(pad(look, fdt, 1.0))
         self.n_tris = n_tri
         self.surface_version += 1
         self.update()

@@ -2,8 +2,9 @@
 
 `make_renderer(kind, width, height)` returns an object with `.name` ('ggui', 'raster' or 'none'),
 `.message` (one line saying which renderer runs and why), `render(scene, camera)` -> (H, W, 3) uint8
-(None for 'none') and `release()`. 'auto' takes GGUI when the Vulkan probe succeeds
-(render.ggui.vulkan_status) and the Taichi rasteriser otherwise; both draw the same image.
+(None for 'none') and `release()`. 'auto' takes the Taichi rasteriser: it is deterministic, casts
+shadows, needs no Vulkan and is faster than GGUI on a CPU (docs/decisions.md, "Headless frames");
+'ggui' draws through Vulkan (the interactive window's renderer) without shadows.
 """
 
 from __future__ import annotations
@@ -41,15 +42,10 @@ def make_renderer(kind: str, width: int = 640, height: int = 480):
         return NullRenderer(width, height)
     if key == "raster":
         return RasterRenderer(width, height)
-    from render.ggui import GGUIRenderer, vulkan_status
+    from render.ggui import GGUIRenderer
 
     if key == "ggui":
         return GGUIRenderer(width, height)
-    ok, why = vulkan_status()
-    if ok:
-        r = GGUIRenderer(width, height)
-        r.message = f"renderer: auto -> ggui (Vulkan works: {why})"
-        return r
-    r = RasterRenderer(width, height)
-    r.message = f"renderer: auto -> raster (Vulkan unavailable: {why})"
+    r = RasterRenderer(width, height)  # auto: frames the project controls (docs/decisions.md, "Headless frames")
+    r.message = f"renderer: auto -> raster (Taichi software rasteriser, {width}x{height}; soft shadows)"
     return r

@@ -13,7 +13,7 @@ import numpy as np
 
 from render.camera import Camera
 from render.primitives import ground_quad
-from render.scene_data import MeshPart, RenderScene, body_palette
+from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
 from render.select import make_renderer
 from render.writers import PngSequenceWriter, make_writer
 
@@ -40,7 +40,7 @@ class SceneView:
 
     def __init__(self, world) -> None:
         self.world = world
-        self.scene = RenderScene()
+        self.scene = RenderScene(lighting=Lighting.studio())
         self._version = -1
         self._floor = []
         for col in world.cfg.colliders:
