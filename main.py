@@ -45,11 +45,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
-                      progress=not args.no_progress)
+                      progress=not args.no_progress, until_settled=not args.all_frames)
     stats = run(cfg, opts)
     t1 = stats["table1"]
     print(f"{cfg.scene.name}: {stats['frames']} frames, {t1['fragments']} fragments, "
-          f"{len(stats['events'])} fracture events, {stats['timings']['average_fps']} frames/s -> {out}")
+          f"{len(stats['events'])} fracture events, {stats['timings']['average_fps']} frames/s -> {out}"
+          + (f" ({stats['stopped']})" if stats.get("stopped") else ""))
     return 0
 
 
@@ -150,6 +151,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--meshes", default="none", choices=["none", "obj", "ply"], help="fragment meshes every frame")
     r.add_argument("--vtu", action="store_true", help="write a VTU series of the particles (ParaView)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--all-frames", action="store_true",
+                   help="run every frame (default: stop once every piece has rested for 1 s)")
     runtime_options(r)
     r.set_defaults(func=_cmd_run)
 

@@ -37,12 +37,11 @@ import taichi as ti
 from render.camera import Camera
 from render.scene_data import RenderScene
 from sim.errors import ConfigError
-from sim.runtime import numpy_float
 
 DEPTH_LEVELS = 2**31 - 1  # z_ndc in [0, 1] is quantised to this many levels in the upper 32 bits of a key
 ID_MASK = 2**32 - 1  # lower 32 bits of a key: 1 + primitive id (0 = empty pixel)
 MAX_SIZE_PX = 8192  # px: largest image side accepted
-SHADOW_TEXELS = 1024  # texels per side of the key light's shadow map
+SHADOW_TEXELS = 512  # texels per side of the key light's shadow map
 SHADOW_FILTER = 2  # texels: half-width of the percentage-closer filter (soft shadow edges)
 SHADOW_MARGIN = 0.02  # -: the map covers the casters' bounds grown by this share of their size
 
@@ -155,22 +154,6 @@ def _k_cover_triangles(n_tri: ti.i32, vp_t: ti.math.mat4, near: float, w_px: ti.
             _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key_t)
         else:
             _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key)
-
-
-@ti.kernel
-def _k_caster_bounds(n_tri: ti.i32, n_p: ti.i32, corner_x: ti.template(), corner_body: ti.template(),
-                     particle_x: ti.template(), particle_r: ti.template(), bounds: ti.template()):
-    """World box of everything that casts a shadow: bodies' triangles (not static world geometry such
-    as the floor) and particles. bounds[0] = lo, bounds[1] = hi (reset by the caller)."""
-    for c in range(3 * n_tri):
-        if corner_body[c] >= 0:
-            for k in ti.static(range(3)):
-                ti.atomic_min(bounds[0][k], corner_x[c][k])
-                ti.atomic_max(bounds[1][k], corner_x[c][k])
-    for i in range(n_p):
-        for k in ti.static(range(3)):
-            ti.atomic_min(bounds[0][k], particle_x[i][k] - particle_r[i])
-            ti.atomic_max(bounds[1][k], particle_x[i][k] + particle_r[i])
 
 
 @ti.func
@@ -287,13 +270,29 @@ def _lit_fraction(p, n, lbasis, lmap, size: ti.i32, shadow: ti.template()):
     d = q[2] + texel
     cx = ti.cast(ti.floor(q[0]), ti.i32)
     cy = ti.cast(ti.floor(q[1]), ti.i32)
-    lit = 0.0
-    for i, j in ti.static(ti.ndrange((-SHADOW_FILTER, SHADOW_FILTER + 1), (-SHADOW_FILTER, SHADOW_FILTER + 1))):
-        tx = cx + i
-        ty = cy + j
-        if tx < 0 or tx >= size or ty < 0 or ty >= size or d >= shadow[ty, tx]:
-            lit += 1.0
-    return lit / (2 * SHADOW_FILTER + 1) ** 2
+    k = ti.static(SHADOW_FILTER)
+    lit = 1.0
+    if -k <= cx and cx < size + k and -k <= cy and cy < size + k:  # outside the map nothing is above p
+        # the filter's four corner taps agree away from a shadow's rim: then the whole filter does
+        corners = 0.0
+        for i, j in ti.static(ti.ndrange(2, 2)):
+            corners += _tap(cx + (2 * i - 1) * k, cy + (2 * j - 1) * k, d, size, shadow)
+        lit = corners / 4.0
+        if 0.0 < corners and corners < 4.0:
+            lit = 0.0
+            for i, j in ti.static(ti.ndrange((-k, k + 1), (-k, k + 1))):
+                lit += _tap(cx + i, cy + j, d, size, shadow)
+            lit /= (2 * k + 1) ** 2
+    return lit
+
+
+@ti.func
+def _tap(tx, ty, d, size: ti.i32, shadow: ti.template()):
+    """1.0 where the point at height d is above every caster of texel (tx, ty) (or off the map)."""
+    r = 1.0
+    if 0 <= tx and tx < size and 0 <= ty and ty < size and d < shadow[ty, tx]:
+        r = 0.0
+    return r
 
 
 @ti.func
@@ -448,8 +447,6 @@ class RasterRenderer:
         fb.dense(ti.ij, (self.height, self.width)).place(self.pix_key, self.pix_key_t, self.pix_rgb, self.pix_id)
         self.shadow = ti.field(float)  # (S, S) m: largest caster height towards the key light per texel
         fb.dense(ti.ij, (SHADOW_TEXELS, SHADOW_TEXELS)).place(self.shadow)
-        self.caster_bounds = ti.math.vec3.field()  # (2,) m: world box (lo, hi) of the shadow casters
-        fb.dense(ti.i, 2).place(self.caster_bounds)
         self._tree = fb.finalize()
         self.message = f"renderer: raster (Taichi software rasteriser, {self.width}x{self.height})"
 
@@ -470,11 +467,7 @@ class RasterRenderer:
         off = ti.math.mat3(np.eye(3)), ti.math.vec3(0.0, 0.0, 0.0)
         if not lt.shadows or not (scene.n_tris or scene.n_particles):
             return off
-        big = 1e30
-        self.caster_bounds.from_numpy(np.array([[big] * 3, [-big] * 3], dtype=numpy_float()))
-        _k_caster_bounds(scene.n_tris, scene.n_particles, scene.corner_x, scene.corner_body, scene.particle_x,
-                         scene.particle_r, self.caster_bounds)
-        lo, hi = self.caster_bounds.to_numpy().astype(np.float64)
+        lo, hi = scene.body_bounds(particles=True)
         if not np.all(hi >= lo):
             return off
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])

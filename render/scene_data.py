@@ -153,6 +153,22 @@ def _k_transform(n_tri: ti.i32, n_body: ti.i32, corner_ref: ti.template(), corne
 
 
 @ti.kernel
+def _k_body_bounds(n_tri: ti.i32, n_p: ti.i32, corner_x: ti.template(), corner_body: ti.template(),
+                     particle_x: ti.template(), particle_r: ti.template(), bounds: ti.template()):
+    """World box of the bodies' triangles (not static world geometry such as the floor) and of n_p
+    particles: bounds[0] = lo, bounds[1] = hi (reset by the caller)."""
+    for c in range(3 * n_tri):
+        if corner_body[c] >= 0:
+            for k in ti.static(range(3)):
+                ti.atomic_min(bounds[0][k], corner_x[c][k])
+                ti.atomic_max(bounds[1][k], corner_x[c][k])
+    for i in range(n_p):
+        for k in ti.static(range(3)):
+            ti.atomic_min(bounds[0][k], particle_x[i][k] - particle_r[i])
+            ti.atomic_max(bounds[1][k], particle_x[i][k] + particle_r[i])
+
+
+@ti.kernel
 def _k_copy_poses(n: ti.i32, src_x: ti.template(), src_q: ti.template(), src_com: ti.template(),
                   pose_x: ti.template(), pose_q: ti.template(), pose_ref_com: ti.template()):
     for b in range(n):
@@ -185,6 +201,7 @@ class RenderScene:
         self.surface_version = 0
         self.generation = 0
         self._trees: dict[str, ti.SNodeTree | None] = dict(surf=None, pose=None, part=None, line=None)
+        self._bounds = None
         self.cap = dict(surf=0, pose=0, part=0, line=0)
         self._alloc("surf", tri_capacity)
         self._alloc("pose", body_capacity)
@@ -244,6 +261,7 @@ class RenderScene:
             if tree is not None:
                 tree.destroy()
             self._trees[kind] = None
+        self._bounds = None
         self.n_tris = self.n_bodies = self.n_particles = self.n_lines = 0
 
     # ---- surfaces --------------------------------------------------------------------------------
@@ -381,6 +399,22 @@ class RenderScene:
         self.n_lines = n
 
     # ---- queries ---------------------------------------------------------------------------------
+    def body_bounds(self, particles: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """World box (lo, hi) m of the bodies' surfaces (not the floor or other static geometry) and,
+        with `particles`, of the particles: one kernel and six numbers to the host (every frame is fine).
+        lo > hi when there is nothing."""
+        if self._bounds is None:
+            fb = ti.FieldsBuilder()
+            self._bounds = ti.math.vec3.field()  # (2,) m: lo, hi of the last body_bounds query
+            fb.dense(ti.i, 2).place(self._bounds)
+            self._trees["bounds"] = fb.finalize()
+        big = 1e30
+        self._bounds.from_numpy(np.array([[big] * 3, [-big] * 3], dtype=numpy_float()))
+        _k_body_bounds(self.n_tris, self.n_particles if particles else 0, self.corner_x, self.corner_body,
+                       self.particle_x, self.particle_r, self._bounds)
+        lo, hi = self._bounds.to_numpy().astype(np.float64)
+        return lo, hi
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World axis-aligned bounds (lo, hi) of everything drawn (host copy: not for every frame)."""
         pts = []

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from render.camera import Camera
+from render.framing import FollowCamera
 from render.primitives import ground_quad
 from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
 from render.select import make_renderer
@@ -33,6 +34,12 @@ def world_surfaces(world):
 def camera_for(world, aspect: float) -> Camera:
     c = world.cfg.camera
     return Camera(eye=c.eye, target=c.target, fov_deg=c.fov)
+
+
+def floor_height(world) -> float | None:
+    """m: height of the lowest horizontal plane collider (the floor), None without one."""
+    ys = [c.point[1] for c in world.cfg.colliders if c.type == "plane" and abs(c.normal[1]) > 0.99]
+    return min(ys) if ys else None
 
 
 class SceneView:
@@ -86,12 +93,15 @@ class HeadlessSession:
         self.renderer = make_renderer(kind, width, height)
         self.description = self.renderer.message
         self.view = SceneView(world)
-        self.camera = camera_for(world, width / height)
+        self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
+                                    follow=world.cfg.camera.mode == "follow")
+        self.camera = self.framing.camera
         self.frames = PngSequenceWriter(Path(out) / "frames")
         self.video = make_writer(video, out, fps=world.cfg.scene.fps, stem=world.cfg.scene.name)
 
     def write_frame(self) -> np.ndarray:
         self.view.refresh()
+        self.camera = self.framing.update(*self.view.scene.body_bounds())
         img = self.renderer.render(self.view.scene, self.camera)
         self.frames.write(img)
         if self.video is not None:

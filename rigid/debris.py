@@ -181,6 +181,17 @@ class DebrisStore:
                         nl[k] = 1.0 if p[k] >= 0.0 else -1.0
                         self._respond(i, c, R @ nl, slack[k] + r)
 
+    def max_speed(self) -> float:
+        """m/s: the fastest live debris particle (0 with none)."""
+        return float(self._k_max_speed(self.count)) if self.count else 0.0
+
+    @ti.kernel
+    def _k_max_speed(self, n: ti.i32) -> float:
+        v = 0.0
+        for i in range(n):
+            ti.atomic_max(v, self.debris_v[i].norm())
+        return v
+
     def state(self) -> dict:
         """Numpy copies of the live debris: x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
         n = self.count

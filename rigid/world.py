@@ -706,6 +706,10 @@ class RigidWorld:
         )
 
     # ------------------------------------------------------------------ reading
+    def awake_bodies(self) -> int:
+        """Dynamic bodies not asleep (one kernel; no download of the body state)."""
+        return int(K.k_count_awake(self._s, self._nb)) if self._nb else 0
+
     def body_state(self) -> BodyState:
         """Numpy copy of every body's pose and velocity (index = body id)."""
         return self._download_bodies(self._nb)

@@ -277,6 +277,9 @@ class CameraConfig:
     eye: list = spec_field("vec3", [0.8, 0.6, 0.8], lo=-1e6, hi=1e6, unit="m")
     target: list = spec_field("vec3", [0.0, 0.1, 0.0], lo=-1e6, hi=1e6, unit="m")
     fov: float = spec_field("float", 45.0, lo=1.0, hi=170.0, unit="deg")
+    # follow: eye - target is the view direction; target and distance frame the bodies every frame
+    # (render/framing.py). fixed: the eye and target as given.
+    mode: str = spec_field("str", "follow", choices=("follow", "fixed"))
 
 
 @dataclass

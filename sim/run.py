@@ -25,6 +25,9 @@ from sim.runtime import runtime
 STATS_VERSION = 1
 
 
+SETTLED_S = 1.0  # s: a run ends once every body has been asleep (and the debris at rest) this long
+
+
 @dataclass
 class RunOptions:
     out: Path
@@ -37,6 +40,7 @@ class RunOptions:
     meshes: str = "none"  # none | obj | ply: fragment meshes every frame
     vtu: bool = False  # particle VTU series
     progress: bool = True
+    until_settled: bool = True  # stop once nothing has moved for SETTLED_S (False: every frame)
 
 
 def versions() -> dict:
@@ -110,10 +114,13 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
     done = 0
     interrupted = False
     bar = tqdm(total=frames, desc=cfg.scene.name, unit="frame", disable=not opts.progress, file=sys.stderr)
+    settled_frames = 0  # consecutive frames in which nothing moved
+    stopped = None
     try:
         for _ in range(frames):
             world.step_frame()
             done += 1
+            settled_frames = settled_frames + 1 if opts.until_settled and world.settled() else 0
             if renderer is not None:
                 renderer.write_frame()
             if opts.meshes != "none" or opts.vtu:
@@ -122,6 +129,9 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
                 write_frame_exports(world, out, done - 1, opts.meshes, opts.vtu)
             bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
             bar.update(1)
+            if settled_frames >= max(1, round(SETTLED_S * cfg.scene.fps)):
+                stopped = f"settled: nothing moved for {SETTLED_S:g} s"
+                break
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -130,6 +140,7 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
         if renderer is not None:
             renderer.close()
         stats = collect_stats(world, wall, done, interrupted)
+        stats["stopped"] = stopped
         atomic_write_json(out / "stats.json", stats)
         world.release()
     if interrupted:

@@ -429,6 +429,15 @@ class World:
         counts["total"] = counts["debris"] + counts["small"] + counts["large"]
         return counts
 
+    def settled(self) -> bool:
+        """Nothing moves any more: every dynamic body asleep and the debris slower than the rigid
+        world's sleep speed (a run may stop writing frames then, sim/run.py)."""
+        if "rigid" not in self.stages or self.rigid.awake_bodies():
+            return False
+        if "debris" in self.stages:
+            return self.debris.max_speed() < self.rigid.config.sleep_linear_speed_mps
+        return True
+
     def fragment_count(self) -> int:
         return self.pieces()["total"]
 

@@ -65,3 +65,43 @@ def test_fragment_meshes_and_vtu_series(tmp_path):
     assert len(series) == 3 and (out / "vtu" / "particles.pvd").exists()
     last = meshio.read(series[-1])
     assert len(last.points) == 14 and set(last.point_data["kind"]) == {1}
+
+
+BOX_ON_FLOOR = """
+[scene]
+name = "box_drop"
+effects = ["rigid"]
+frames = 600
+[[materials]]
+name = "wood"
+density = 600.0
+stiffness = { model = "isotropic", E = 1.0e10, nu = 0.3 }
+[[objects]]
+name = "box"
+shape = { type = "box", size = [0.1, 0.05, 0.05] }
+material = "wood"
+resolution = 0.025
+position = [0.0, 0.1, 0.0]
+breakable = false
+[[colliders]]
+type = "plane"
+"""
+
+
+def test_a_run_ends_once_everything_rests(tmp_path):
+    """A box dropped 7.5 cm comes to rest; the run ends SETTLED_S later (all bodies asleep that long),
+    long before the scene's 600 frames, with one PNG per frame written; --all-frames runs them all."""
+    from sim.run import SETTLED_S
+
+    path = tmp_path / "box_drop.toml"
+    path.write_text(BOX_ON_FLOOR)
+    cfg = load_scene(str(path))
+    stats = run(cfg, RunOptions(out=tmp_path / "a", renderer="raster", video="none", width=64, height=48,
+                                progress=False))
+    assert stats["stopped"].startswith("settled")
+    fps = cfg.scene.fps
+    assert SETTLED_S * fps <= stats["frames"] < 4 * SETTLED_S * fps
+    assert len(list((tmp_path / "a" / "frames").glob("frame_*.png"))) == stats["frames"]
+    full = run(cfg, RunOptions(out=tmp_path / "b", frames=stats["frames"] + 30, renderer="none", video="none",
+                               progress=False, until_settled=False))
+    assert full["stopped"] is None and full["frames"] == stats["frames"] + 30
