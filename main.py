@@ -45,7 +45,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
-                      progress=not args.no_progress, until_settled=not args.all_frames)
+                      progress=not args.no_progress, until_settled=not args.all_frames,
+                      colors=args.colors)
     stats = run(cfg, opts)
     t1 = stats["table1"]
     print(f"{cfg.scene.name}: {stats['frames']} frames, {t1['fragments']} fragments, "
@@ -151,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--meshes", default="none", choices=["none", "obj", "ply"], help="fragment meshes every frame")
     r.add_argument("--vtu", action="store_true", help="write a VTU series of the particles (ParaView)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    r.add_argument("--colors", default="material", choices=["material", "fragments"],
+                   help="faces in their material's look (crack faces shaded), or one colour per fragment")
     r.add_argument("--all-frames", action="store_true",
                    help="run every frame (default: stop once every piece has rested for 1 s)")
     runtime_options(r)

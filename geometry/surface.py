@@ -45,6 +45,7 @@ class SurfaceMesh:
     face_label: np.ndarray  # (F,) int64: fragment label of each face
     vert_label: np.ndarray  # (V,) int64: fragment label of each vertex
     open_edges: int = 0  # directed edges left without a reverse (0 for closed surfaces)
+    face_id: np.ndarray | None = None  # (F,) int64: particle * 4 + k: face k of that particle's tet
 
     def fragment(self, label: int) -> tuple[np.ndarray, np.ndarray]:
         """(verts, faces) of one fragment, vertex ids local to it."""
@@ -81,8 +82,9 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     return nodes[balanced[comp]]
 
 
-def _split_t_junctions(verts, faces, vert_label, max_rounds: int = 64):
-    """Split faces at vertices hanging on their edges; returns (faces, open directed edges)."""
+def _split_t_junctions(verts, faces, vert_label, face_data, max_rounds: int = 64):
+    """Split faces at vertices hanging on their edges (both halves keep their face's `face_data`);
+    returns (faces, face_data, open directed edges)."""
     nv = len(verts)
     for _ in range(max_rounds):
         e = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)  # (F, 3, 2): directed edges per face
@@ -95,7 +97,7 @@ def _split_t_junctions(verts, faces, vert_label, max_rounds: int = 64):
         fcnt = cnt[np.searchsorted(uk, key)]
         open_e = fcnt != rcnt  # (F, 3)
         if not open_e.any():
-            return faces, 0
+            return faces, face_data, 0
         fi, ei = np.nonzero(open_e)
         u = e[fi, ei, 0]
         v = e[fi, ei, 1]
@@ -106,7 +108,7 @@ def _split_t_junctions(verts, faces, vert_label, max_rounds: int = 64):
         hits = tree.query_ball_point(0.5 * (a + b), 0.5 * length * (1.0 + 1e-9) + 1e-300)
         cnts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
         if cnts.sum() == 0:
-            return faces, int(open_e.sum())
+            return faces, face_data, int(open_e.sum())
         row = np.repeat(np.arange(len(u)), cnts)
         w = cand[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if len(h)])]
         ab = b[row] - a[row]
@@ -123,7 +125,7 @@ def _split_t_junctions(verts, faces, vert_label, max_rounds: int = 64):
             & (off <= COLLINEAR_REL * np.sqrt(L2))
         )
         if not ok.any():
-            return faces, int(open_e.sum())
+            return faces, face_data, int(open_e.sum())
         row, w, t = row[ok], w[ok], t[ok]
         f = fi[row]
         # one split per face and round: the hanging vertex closest to its edge's start
@@ -140,7 +142,8 @@ def _split_t_junctions(verts, faces, vert_label, max_rounds: int = 64):
         keep = np.ones(len(faces), dtype=bool)
         keep[f] = False
         faces = np.concatenate([faces[keep], new_a, new_b])
-    return faces, edge_imbalance(faces)
+        face_data = np.concatenate([face_data[keep], face_data[f], face_data[f]])
+    return faces, face_data, edge_imbalance(faces)
 
 
 def fragment_surfaces(ps: ParticleSet, labels: np.ndarray) -> SurfaceMesh:
@@ -166,9 +169,10 @@ def fragment_surfaces(ps: ParticleSet, labels: np.ndarray) -> SurfaceMesh:
     verts = np.stack([u["x"], u["y"], u["z"]], 1).astype(np.float64)
     vlab = u["l"].astype(np.int64)
     faces = inv.reshape(-1, 3).astype(np.int64)
-    faces, n_open = _split_t_junctions(verts, faces, vlab)
+    faces, face_id, n_open = _split_t_junctions(verts, faces, vlab, fid)
     return SurfaceMesh(
-        verts=verts, faces=faces, face_label=vlab[faces[:, 0]], vert_label=vlab, open_edges=n_open
+        verts=verts, faces=faces, face_label=vlab[faces[:, 0]], vert_label=vlab, open_edges=n_open,
+        face_id=face_id,
     )
 
 
@@ -197,3 +201,40 @@ def enclosed_volumes(mesh: SurfaceMesh) -> np.ndarray:
     v = mesh.verts[mesh.faces] - ref[mesh.face_label][:, None, :]
     six = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2]))
     return np.bincount(mesh.face_label, weights=six, minlength=n) / 6.0
+
+
+def on_surface(surface_tris: np.ndarray, tris: np.ndarray, tol: float) -> np.ndarray:
+    """(F,) bool: which triangles `tris` (F, 3, 3) lie on the surface made of `surface_tris` (T, 3, 3)
+    with the same orientation: the centroid within `tol` (m) of a surface triangle's plane and inside
+    it (barycentric tolerance tol / its size), normals within 25 degrees. Used to tell a fragment's
+    outer faces (on the object's surface at rest) from the faces a crack created."""
+    out = np.zeros(len(tris), dtype=bool)
+    if len(tris) == 0 or len(surface_tris) == 0:
+        return out
+    sc = surface_tris.mean(1)
+    reach = float(np.max(np.linalg.norm(surface_tris - sc[:, None, :], axis=2))) + tol
+    qc = tris.mean(1)
+    qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
+    hits = cKDTree(sc).query_ball_point(qc, reach)
+    cnt = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+    if cnt.sum() == 0:
+        return out
+    q = np.repeat(np.arange(len(tris)), cnt)
+    t = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if len(h)])
+    a, b, c = surface_tris[t, 0], surface_tris[t, 1], surface_tris[t, 2]
+    n = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(area2, 1e-300)[:, None]
+    p = qc[q]
+    near_plane = np.abs(np.einsum("ij,ij->i", p - a, n)) <= tol
+    same_way = np.einsum("ij,ij->i", qn[q], n) > np.cos(np.radians(25.0))
+    # barycentric coordinates of p in (a, b, c), by sub-areas along n
+    wa = np.einsum("ij,ij->i", np.cross(c - b, p - b), n)
+    wb = np.einsum("ij,ij->i", np.cross(a - c, p - c), n)
+    wc = np.einsum("ij,ij->i", np.cross(b - a, p - a), n)
+    slack = -tol * np.sqrt(area2)
+    inside = (wa >= slack) & (wb >= slack) & (wc >= slack)
+    ok = near_plane & same_way & inside
+    out[q[ok]] = True
+    return out

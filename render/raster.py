@@ -166,12 +166,14 @@ def _to_light(x, lbasis, lmap):
 @ti.kernel
 def _k_shadow_casters(n_tri: ti.i32, n_p: ti.i32, lbasis: ti.math.mat3, lmap: ti.math.vec3, size: ti.i32,
                       corner_x: ti.template(), corner_n: ti.template(), corner_body: ti.template(),
-                      particle_x: ti.template(), particle_r: ti.template(), shadow: ti.template()):
+                      corner_look: ti.template(), particle_x: ti.template(), particle_r: ti.template(),
+                      shadow: ti.template()):
     """The key light's depth map: for every texel the largest height (x . light_dir) of a caster."""
     ldir = ti.Vector([lbasis[2, 0], lbasis[2, 1], lbasis[2, 2]])
     for t in range(n_tri):
         # a closed caster's faces turned away from the light lie below its lit faces: skip them
-        if corner_body[3 * t] >= 0 and corner_n[3 * t].dot(ldir) >= 0.0:
+        # see-through (glass) transmits most of the light: it casts no shadow
+        if corner_body[3 * t] >= 0 and corner_n[3 * t].dot(ldir) >= 0.0 and corner_look[3 * t][1] >= 1.0:
             a = _to_light(corner_x[3 * t], lbasis, lmap)
             b = _to_light(corner_x[3 * t + 1], lbasis, lmap)
             c = _to_light(corner_x[3 * t + 2], lbasis, lmap)
@@ -480,7 +482,8 @@ class RasterRenderer:
         lbasis = ti.math.mat3(basis)
         self.shadow.fill(-1e30)
         _k_shadow_casters(scene.n_tris, scene.n_particles, lbasis, lmap, SHADOW_TEXELS, scene.corner_x,
-                          scene.corner_n, scene.corner_body, scene.particle_x, scene.particle_r, self.shadow)
+                          scene.corner_n, scene.corner_body, scene.corner_look, scene.particle_x, scene.particle_r,
+                          self.shadow)
         return lbasis, lmap
 
     def render(self, scene: RenderScene, camera: Camera) -> np.ndarray:

@@ -11,15 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry.surface import on_surface
 from render.camera import Camera
 from render.framing import FollowCamera
 from render.primitives import ground_quad
 from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
 from render.select import make_renderer
 from render.writers import PngSequenceWriter, make_writer
+from sim.errors import ConfigError
+from sim.looks import CRACK_GREY
 
 FLOOR_COLOR = (0.55, 0.55, 0.58)
-DEBRIS_COLOR = (0.78, 0.80, 0.84)  # shattered particles (the `debris` effect)
 
 
 def world_surfaces(world):
@@ -29,6 +31,18 @@ def world_surfaces(world):
     ps = world.particles
     labels = np.where(ps.alive, ps.body, -1).astype(np.int64)
     return fragment_surfaces(ps, labels)
+
+
+def rest_surface(world) -> np.ndarray:
+    """(T, 3, 3) m: the objects' surface before anything broke, in the reference frame: the faces of
+    the built tets (particles 0 .. physical_count - 1) that no other built tet shares."""
+    from geometry.subdivision import face_points
+
+    tri = face_points(world.particles.rest_verts[: world.physical_count]).reshape(-1, 3, 3)
+    order = np.lexsort((tri[..., 2], tri[..., 1], tri[..., 0]), axis=1)  # the corners in a fixed order
+    key = np.take_along_axis(tri, order[..., None], axis=1).reshape(len(tri), 9)
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return tri[cnt[inv.ravel()] == 1]
 
 
 def camera_for(world, aspect: float) -> Camera:
@@ -42,37 +56,89 @@ def floor_height(world) -> float | None:
     return min(ys) if ys else None
 
 
-class SceneView:
-    """The renderable state of a World, kept in step with it (shared by headless runs and the viewer)."""
+COLOR_MODES = ("material", "fragments")  # --colors: each material's look, or one colour per fragment
+ON_SURFACE_REL = 1e-7  # -: a face within this share of the scene's size of the rest surface is an outer face
+SURFACE_HEADROOM = 3  # -: triangle capacity reserved, in multiples of the objects' rest surface
 
-    def __init__(self, world) -> None:
+
+class SceneView:
+    """The renderable state of a World, kept in step with it (shared by headless runs and the viewer).
+
+    Colours: `colors="material"` draws each face in its material's look (sim/looks.py) and the faces
+    that cracks created in the look's crack shade; `colors="fragments"` gives every body its own
+    palette colour (crack faces a shade of it). A face is a crack face when it does not lie on the
+    objects' surface at rest (geometry.surface.on_surface); the answer is cached per tet face."""
+
+    def __init__(self, world, colors: str = "material") -> None:
+        if colors not in COLOR_MODES:
+            raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
-        self.scene = RenderScene(lighting=Lighting.studio())
+        self.colors = colors
+        self._rest_tris = rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3))
+        # room for the crack faces and debris of the first events: a larger buffer is a new Taichi
+        # field, and every render kernel recompiles for it (about 2 s)
+        self.scene = RenderScene(tri_capacity=SURFACE_HEADROOM * len(self._rest_tris) + 2,
+                                 particle_capacity=world.physical_count if "debris" in world.stages else 0,
+                                 lighting=Lighting.studio())
         self._version = -1
         self._floor = []
         for col in world.cfg.colliders:
             if col.type == "plane" and abs(col.normal[1]) > 0.99:
                 v, f = ground_quad(height=col.point[1], half_size=2.0)
-                self._floor.append(MeshPart(v, f, body=-1, colors=FLOOR_COLOR))
+                self._floor.append(MeshPart(v, f, body=-1, colors=FLOOR_COLOR, roughness=0.9))
+        self.looks = [m.appearance for m in world.cfg.materials]
+        size = float(np.ptp(self._rest_tris.reshape(-1, 3), axis=0).max()) if len(self._rest_tris) else 1.0
+        self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
+        self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self.refresh()
+
+    def _outer_faces(self, mesh) -> np.ndarray:
+        """(F,) bool: faces of `mesh` lying on the objects' rest surface (the rest are crack faces)."""
+        fid = mesh.face_id
+        if len(fid) and fid.max() >= len(self._outer):
+            grown = np.full(max(int(fid.max()) + 1, 2 * len(self._outer)), -1, dtype=np.int8)
+            grown[: len(self._outer)] = self._outer
+            self._outer = grown
+        todo = np.flatnonzero(self._outer[fid] < 0)
+        if todo.size:
+            first = np.unique(fid[todo], return_index=True)[1]  # split faces share their tet face
+            rows = todo[first]
+            self._outer[fid[rows]] = on_surface(self._rest_tris, mesh.verts[mesh.faces[rows]], self._tol)
+        return self._outer[fid] == 1
+
+    def _surface_parts(self, mesh) -> list[MeshPart]:
+        """One part per material (its roughness and opacity), faces coloured by look and crack."""
+        w = self.world
+        outer = self._outer_faces(mesh)
+        mat = w.particles.material[mesh.face_id // 4]
+        body = mesh.face_label
+        if self.colors == "fragments":
+            base = body_palette(max(1, int(body.max(initial=0)) + 1))[body]
+            crack = 0.6 * base + 0.4 * np.asarray(CRACK_GREY)
+        else:
+            base = np.array([self.looks[m].color for m in range(len(self.looks))])[mat]
+            crack = np.array([self.looks[m].crack() for m in range(len(self.looks))])[mat]
+        color = np.where(outer[:, None], base, crack)
+        parts = []
+        for m in np.unique(mat):
+            sel = mat == m
+            look = self.looks[int(m)]
+            parts.append(MeshPart(mesh.verts, mesh.faces[sel], body=mesh.vert_label, colors=color[sel],
+                                  color_per="face", roughness=look.roughness, opacity=look.opacity))
+        return parts
 
     def refresh(self) -> None:
         """Bring surfaces (when fracture changed them) and poses up to date."""
         w = self.world
         if "rigid" in w.stages:
             if w.surface_version != self._version:
-                mesh = world_surfaces(w)
-                palette = body_palette(max(1, w.rigid.n_bodies))
-                parts = list(self._floor)
-                for label in np.unique(mesh.vert_label):
-                    verts, faces = mesh.fragment(int(label))
-                    parts.append(MeshPart(verts, faces, body=int(label), colors=tuple(palette[int(label)])))
-                self.scene.set_surfaces(parts)
+                self.scene.set_surfaces(self._floor + self._surface_parts(world_surfaces(w)))
                 self._version = w.surface_version
             s = w.rigid._s
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
             if "debris" in w.stages:
-                self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count, DEBRIS_COLOR)
+                self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count,
+                                               self._debris_color())
         else:  # elastic scenes: the particles themselves
             if self._version < 0:
                 self.scene.set_surfaces(self._floor)
@@ -82,6 +148,12 @@ class SceneView:
             self.scene.set_particles(x, w.particles.radius * 1.2, colors)
         self.scene.update()
 
+    def _debris_color(self) -> tuple:
+        """Shattered particles (the `debris` effect) in the crack shade of the first breakable material."""
+        cfg = self.world.cfg
+        obj = next((o for o in cfg.objects if o.breakable), cfg.objects[0])
+        return cfg.material(obj.material).appearance.crack()
+
     def release(self) -> None:
         self.scene.release()
 
@@ -89,10 +161,11 @@ class SceneView:
 class HeadlessSession:
     """Writes one PNG per frame (and a video) for a World."""
 
-    def __init__(self, world, kind: str, width: int, height: int, out: Path, video: str) -> None:
+    def __init__(self, world, kind: str, width: int, height: int, out: Path, video: str,
+                 colors: str = "material") -> None:
+        self.view = SceneView(world, colors)
         self.renderer = make_renderer(kind, width, height)
         self.description = self.renderer.message
-        self.view = SceneView(world)
         self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
                                     follow=world.cfg.camera.mode == "follow")
         self.camera = self.framing.camera

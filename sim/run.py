@@ -41,6 +41,7 @@ class RunOptions:
     vtu: bool = False  # particle VTU series
     progress: bool = True
     until_settled: bool = True  # stop once nothing has moved for SETTLED_S (False: every frame)
+    colors: str = "material"  # material: each material's look | fragments: a colour per fragment
 
 
 def versions() -> dict:
@@ -108,7 +109,7 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
     if opts.renderer != "none":
         from render.session import HeadlessSession
 
-        renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video)
+        renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors)
         print(renderer.description, file=sys.stderr)
     t0 = time.perf_counter()
     done = 0

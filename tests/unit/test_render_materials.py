@@ -1,0 +1,112 @@
+"""Materials that read in frames: looks from the scene file or the material's kind (sim/looks.py),
+bad looks named in the error, and the faces a crack created drawn in the crack shade (render/session.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from render.camera import Camera
+from render.raster import RasterRenderer
+from render.scene_data import Lighting
+from render.session import SceneView
+from scenes.loader import load_scene
+from sim.errors import ConfigError
+from sim.looks import DEFAULT_LOOK, material_look
+from sim.world import World
+
+SPLIT_BOX = """
+[scene]
+name = "split_box"
+effects = ["rigid", "fracture", "subdivision"]
+frames = 2
+[[materials]]
+name = "porcelain"
+density = 2400.0
+stiffness = { model = "isotropic", E = 7.0e10, nu = 0.2 }
+look = { color = [0.9, 0.9, 0.85], crack_color = [0.2, 0.6, 0.3] }
+[[objects]]
+name = "box"
+shape = { type = "box", size = [0.2, 0.1, 0.1] }
+material = "porcelain"
+resolution = 0.04
+position = [0.0, 0.05, 0.0]
+[[cracks]]
+frame = 0
+object = "box"
+point = [0.0, 0.05, 0.0]
+normal = [1.0, 0.0, 0.0]
+[[colliders]]
+type = "plane"
+"""
+
+
+def test_kind_defaults_and_overrides():
+    assert material_look("soda_lime_glass").opacity < 1.0
+    assert material_look("black_slate").color[0] < 0.2 < material_look("white_marble").color[0]
+    assert material_look("unobtainium") == DEFAULT_LOOK
+    lk = material_look("glass", {"opacity": 0.8, "color": [0.1, 0.2, 0.3]})
+    assert lk.opacity == 0.8 and lk.color == (0.1, 0.2, 0.3) and lk.roughness == material_look("glass").roughness
+    # a crack shade differs from the base colour, lighter on dark stone and darker on white
+    dark, white = material_look("black_slate"), material_look("white_marble")
+    assert dark.crack()[0] > dark.color[0] and white.crack()[0] < white.color[0]
+
+
+def test_the_two_tai_chi_materials_are_black_and_white():
+    cfg = load_scene("taichi")
+    lum = sorted(np.mean(m.appearance.color) for m in cfg.materials)
+    assert lum[0] < 0.2 and lum[1] > 0.8
+
+
+@pytest.mark.parametrize("look,key", [({"color": [1.2, 0, 0]}, "color"), ({"opacity": 0.0}, "opacity"),
+                                      ({"roughness": "shiny"}, "roughness"), ({"shine": 1}, "shine")])
+def test_bad_look_is_named(tmp_path, look, key):
+    items = ", ".join(f"{k} = {v!r}".replace("'", '"') for k, v in look.items())
+    text = SPLIT_BOX.replace('look = { color = [0.9, 0.9, 0.85], crack_color = [0.2, 0.6, 0.3] }',
+                             f"look = {{ {items} }}")
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=rf"materials\[0\]\.look\.{key}"):
+        load_scene(str(path))
+
+
+@pytest.fixture
+def split_world(tmp_path, taichi_runtime):
+    path = tmp_path / "split_box.toml"
+    path.write_text(SPLIT_BOX)
+    world = World(load_scene(str(path)))
+    view = SceneView(world)  # before the crack: the rest surface is the box's
+    world.step_frame()  # the scripted crack at frame 0 splits the box at x = 0
+    view.refresh()
+    yield world, view
+    view.release()
+    world.release()
+
+
+def test_crack_faces_are_the_faces_on_the_cut(split_world):
+    """After the cut the faces classified as crack faces are exactly those on the plane x = 0."""
+    from render.session import world_surfaces
+
+    world, view = split_world
+    assert world.fragment_count() == 2
+    mesh = world_surfaces(world)
+    outer = view._outer_faces(mesh)
+    centre = mesh.verts[mesh.faces].mean(1)
+    on_cut = np.abs(centre[:, 0]) < 1e-9
+    assert on_cut.any() and np.array_equal(~outer, on_cut)
+
+
+def test_crack_face_pixels_take_the_crack_shade(split_world):
+    """Seen from inside the right half (its faces are back faces, culled), the left half's crack face
+    fills the view in the crack shade; lit head-on with ambient + light = 1, the pixel is that colour."""
+    world, view = split_world
+    scene = view.scene
+    scene.lighting = Lighting(light_dir=[1, 0, 0], ambient=[0.25] * 3, light_color=[0.75] * 3)
+    cam = Camera(eye=[0.02, 0.05, 0.0], target=[-1.0, 0.05, 0.0], near=1e-3, far=10.0, fov_deg=30.0)
+    r = RasterRenderer(64, 48)
+    try:
+        img = r.render(scene, cam).astype(int)
+    finally:
+        r.release()
+    want = np.rint(np.array([0.2, 0.6, 0.3]) * 255)
+    assert np.abs(img[24, 32] - want).max() <= 2
