@@ -81,6 +81,27 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return bench_main(["--quick"] if args.quick else [])
 
 
+def _cmd_figures(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from render.figures import FIGURES, make_sheet
+    from sim.errors import ConfigError
+
+    numbers = [f.number for f in FIGURES]
+    only = None
+    if args.only:
+        try:
+            only = [int(x) for x in args.only.split(",")]
+        except ValueError:
+            only = [-1]
+        if not set(only) <= set(numbers):
+            raise ConfigError("--only", args.only, "figure numbers from " + ", ".join(map(str, numbers)))
+    _init(args)
+    out = make_sheet(Path(args.out), only, args.frames, progress=not args.no_progress)
+    print(f"figures -> {out}")
+    return 0
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     from geometry.build import build_object
 
@@ -170,6 +191,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("scenes", help="list the scenes and their effects")
     s.set_defaults(func=_cmd_scenes)
+
+    fg = sub.add_parser("figures", help="render the paper's Figs. 7-12 with our scenes into docs/figures.md")
+    fg.add_argument("--out", default="docs/figures.md", help="Markdown file (images go to figures/ beside it)")
+    fg.add_argument("--only", default=None, help="comma-separated figure numbers (default: 7 to 12)")
+    fg.add_argument("--frames", type=int, default=None, help="frames per scene (default: each scene's)")
+    fg.add_argument("--no-progress", action="store_true", help="no progress bars")
+    runtime_options(fg)
+    fg.set_defaults(func=_cmd_figures)
 
     b = sub.add_parser("bench", help="the accuracy-vs-cost study; writes docs/report/")
     b.add_argument("--quick", action="store_true", help="a reduced study (minutes)")

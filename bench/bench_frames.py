@@ -1,0 +1,102 @@
+"""Simulation vs rendering per frame, for each paper scene (issue 15, "Speed"; DESIGN.md section 8).
+
+    .venv/bin/python bench/bench_frames.py [--quick] [--scenes pot,glass_r3] [--width 1280 --height 720]
+
+Each scene runs headless as `main.py run` does (studio look: shadow map, highlights, edge filter;
+the following camera) over a window from frame 0 to its first fracture event plus AFTER_EVENT frames
+(at most MAX_FRAMES). Per frame it times `World.step_frame` (simulation) and the frame (surfaces
+refreshed when fracture changed them, camera, rasteriser; no PNG encoding). Reported: medians per
+frame (compile spikes after a buffer grows do not count), the render / simulation ratio against the
+target (< 1/4 for Pots at 1280x720), and frames per second with and without rendering beside the
+paper's Table 2 average frame rate (Xeon W3530 + GTX 760; which counts no rendering).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from bench.study_common import clock, md_table  # noqa: E402
+
+AFTER_EVENT = 10  # frames measured after the first fracture event
+MAX_FRAMES = 60  # bound of the window
+TARGET_RATIO = 0.25  # render time / simulation time per frame the issue asks for (Pots, 1280x720)
+PAPER_FPS = {"pot": 10.2, "pot_basic": 10.2, "glass_r3": 36.8, "glass_r5": 36.8, "pots": 1.3, "pet": 1.2,
+             "taichi": 7.6}  # paper Table 2, average frame rate
+SCENES = ("pot", "glass_r3", "glass_r5", "taichi", "pet", "pots")
+QUICK_SCENES = ("pot", "glass_r3")
+
+
+def measure(name: str, width: int, height: int, max_frames: int) -> dict:
+    from render.framing import FollowCamera
+    from render.raster import RasterRenderer
+    from render.session import SceneView, camera_for, floor_height
+    from scenes.loader import load_scene
+    from sim.world import World
+
+    cfg = load_scene(name)
+    world = World(cfg)
+    view = SceneView(world)
+    framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
+                           follow=cfg.camera.mode == "follow")
+    renderer = RasterRenderer(width, height)
+    sim, ren = [], []
+    end = max_frames
+    try:
+        for f in range(max_frames):
+            t0 = clock()
+            world.step_frame()
+            t1 = clock()
+            view.refresh()
+            renderer.render(view.scene, framing.update(*view.scene.body_bounds()))
+            t2 = clock()
+            sim.append(t1 - t0)
+            ren.append(t2 - t1)
+            if world.events and end == max_frames:
+                end = min(max_frames, world.events[0]["frame"] + 1 + AFTER_EVENT)
+            if f + 1 >= end:
+                break
+        tris = view.scene.n_tris
+    finally:
+        renderer.release()
+        view.release()
+        world.release()
+    s, r = statistics.median(sim), statistics.median(ren)
+    return dict(scene=name, frames=len(sim), triangles=tris, sim_ms=1e3 * s, render_ms=1e3 * r, ratio=r / s,
+                fps_sim=1.0 / s, fps_both=1.0 / (s + r))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK_SCENES)}, 640x480")
+    ap.add_argument("--scenes", default=None, help="comma-separated scene names")
+    ap.add_argument("--width", type=int, default=1280)
+    ap.add_argument("--height", type=int, default=720)
+    ap.add_argument("--threads", type=int, default=1, help="CPU threads (the run's default is 1)")
+    args = ap.parse_args(argv)
+    from sim.runtime import init_taichi, runtime
+
+    init_taichi("cpu", threads=args.threads)
+    names = args.scenes.split(",") if args.scenes else (QUICK_SCENES if args.quick else SCENES)
+    width, height = (640, 480) if args.quick else (args.width, args.height)
+    rows = []
+    for name in names:
+        m = measure(name, width, height, MAX_FRAMES)
+        rows.append([m["scene"], m["frames"], f"{m['triangles']:,}", f"{m['sim_ms']:.1f}", f"{m['render_ms']:.1f}",
+                     f"{m['ratio']:.2f}", f"{m['fps_sim']:.2f}", f"{m['fps_both']:.2f}", PAPER_FPS.get(name, "")])
+        print(f"{name}: sim {m['sim_ms']:.1f} ms, render {m['render_ms']:.1f} ms per frame", file=sys.stderr)
+    print(f"Simulation vs rendering per frame, {width}x{height}, CPU ({runtime().device}, "
+          f"{args.threads} thread(s)); medians over the window; target render/sim < {TARGET_RATIO} (Pots)\n")
+    print(md_table(["scene", "frames", "triangles drawn", "simulation ms", "rendering ms", "render / sim",
+                    "fps sim only", "fps with frames", "paper fps (Table 2)"], rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
