@@ -450,6 +450,7 @@ class RasterRenderer:
         self.shadow = ti.field(float)  # (S, S) m: largest caster height towards the key light per texel
         fb.dense(ti.ij, (SHADOW_TEXELS, SHADOW_TEXELS)).place(self.shadow)
         self._tree = fb.finalize()
+        self.pix_key.fill(0)  # touch the tree: destroying one never touched makes the next one crash (Taichi 1.7.4)
         self.message = f"renderer: raster (Taichi software rasteriser, {self.width}x{self.height})"
 
     def release(self) -> None:

@@ -163,9 +163,11 @@ class HeadlessSession:
 
     def __init__(self, world, kind: str, width: int, height: int, out: Path, video: str,
                  colors: str = "material") -> None:
-        self.view = SceneView(world, colors)
-        self.renderer = make_renderer(kind, width, height)
+        if colors not in COLOR_MODES:
+            raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
+        self.renderer = make_renderer(kind, width, height)  # first: a renderer that cannot start allocates nothing
         self.description = self.renderer.message
+        self.view = SceneView(world, colors)
         self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
                                     follow=world.cfg.camera.mode == "follow")
         self.camera = self.framing.camera

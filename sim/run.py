@@ -109,7 +109,11 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
     if opts.renderer != "none":
         from render.session import HeadlessSession
 
-        renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors)
+        try:
+            renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors)
+        except BaseException:
+            world.release()
+            raise
         print(renderer.description, file=sys.stderr)
     t0 = time.perf_counter()
     done = 0
