@@ -248,7 +248,8 @@ class RenderScene:
         self._trees[kind] = fb.finalize()
         self.cap[kind] = cap
         # touch the new tree: destroying one never touched makes the next tree crash (Taichi 1.7.4)
-        {"surf": self.corner_body, "pose": self.pose_x, "part": self.particle_r, "line": self.line_color}[kind].fill(0)
+        first = {"surf": "corner_body", "pose": "pose_x", "part": "particle_r", "line": "line_color"}[kind]
+        getattr(self, first).fill(0)
         if old is not None:
             old.destroy()
             self.generation += 1
