@@ -1,8 +1,10 @@
 """Headless frames of a World: surfaces from the fragment tets, poses from the rigid store, a
-renderer (GGUI or the rasteriser), and the PNG and video writers (DESIGN.md section 7).
+renderer (the rasteriser by default, or GGUI), the following camera (render/framing.py), and the
+PNG and video writers (DESIGN.md section 7).
 
-Surfaces are rebuilt only when fracture changed them (`World.surface_version`); every frame one
-kernel moves them by the body poses, read straight from the rigid store's fields.
+Surfaces are rebuilt only when fracture changed them (`World.surface_version`), coloured by each
+material's look with crack faces in its crack shade (`SceneView`); every frame one kernel moves
+them by the body poses, read straight from the rigid store's fields.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
 from render.select import make_renderer
 from render.writers import PngSequenceWriter, make_writer
 from sim.errors import ConfigError
-from sim.looks import CRACK_GREY
+from sim.looks import CRACK_GREY, material_look
 
 FLOOR_COLOR = (0.55, 0.55, 0.58)
 
@@ -43,6 +45,21 @@ def rest_surface(world) -> np.ndarray:
     key = np.take_along_axis(tri, order[..., None], axis=1).reshape(len(tri), 9)
     _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     return tri[cnt[inv.ravel()] == 1]
+
+
+def material_looks(world) -> list:
+    """The look of every material id of the world's particles: the scene's materials, then any the
+    world added later (the viewer's steel ball), looked up by name."""
+    looks = [m.appearance for m in world.cfg.materials]
+    looks += [material_look(m.name) for m in world.materials[len(looks):]]
+    return looks
+
+
+def debris_color(world) -> tuple:
+    """Shattered particles (the `debris` effect) in the crack shade of the first breakable material."""
+    cfg = world.cfg
+    obj = next((o for o in cfg.objects if o.breakable), cfg.objects[0])
+    return cfg.material(obj.material).appearance.crack()
 
 
 def camera_for(world, aspect: float) -> Camera:
@@ -86,7 +103,7 @@ class SceneView:
             if col.type == "plane" and abs(col.normal[1]) > 0.99:
                 v, f = ground_quad(height=col.point[1], half_size=2.0)
                 self._floor.append(MeshPart(v, f, body=-1, colors=FLOOR_COLOR, roughness=0.9))
-        self.looks = [m.appearance for m in world.cfg.materials]
+        self.looks = material_looks(world)
         size = float(np.ptp(self._rest_tris.reshape(-1, 3), axis=0).max()) if len(self._rest_tris) else 1.0
         self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
@@ -109,6 +126,8 @@ class SceneView:
     def _surface_parts(self, mesh) -> list[MeshPart]:
         """One part per material (its roughness and opacity), faces coloured by look and crack."""
         w = self.world
+        if len(self.looks) < len(w.materials):  # a material added after the start (the viewer's ball)
+            self.looks = material_looks(w)
         outer = self._outer_faces(mesh)
         mat = w.particles.material[mesh.face_id // 4]
         body = mesh.face_label
@@ -138,7 +157,7 @@ class SceneView:
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
             if "debris" in w.stages:
                 self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count,
-                                               self._debris_color())
+                                               debris_color(w))
         else:  # elastic scenes: the particles themselves
             if self._version < 0:
                 self.scene.set_surfaces(self._floor)
@@ -147,12 +166,6 @@ class SceneView:
             colors = np.where(w.elastic_fixed[:, None], [[0.35, 0.35, 0.4]], [[0.85, 0.55, 0.25]])
             self.scene.set_particles(x, w.particles.radius * 1.2, colors)
         self.scene.update()
-
-    def _debris_color(self) -> tuple:
-        """Shattered particles (the `debris` effect) in the crack shade of the first breakable material."""
-        cfg = self.world.cfg
-        obj = next((o for o in cfg.objects if o.breakable), cfg.objects[0])
-        return cfg.material(obj.material).appearance.crack()
 
     def release(self) -> None:
         self.scene.release()

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from render.session import DEBRIS_COLOR, camera_for
+from render.session import camera_for, debris_color
 from render.viewer_input import ZOOM_KEY_RATE, MouseState, drag_camera, poll
 from render.viewer_overlay import (
     COLOUR_MODES,
@@ -362,7 +362,7 @@ class Viewer:
             xs.append(x), rs.append(r), cs.append(c)
         if "debris" in w.stages and w.debris.count:  # the shattered grains (SceneView draws them headless)
             d = w.debris.state()
-            xs.append(d["x"]), rs.append(d["r"]), cs.append(np.tile(DEBRIS_COLOR, (len(d["r"]), 1)))
+            xs.append(d["x"]), rs.append(d["r"]), cs.append(np.tile(debris_color(w), (len(d["r"]), 1)))
         if xs and sum(len(x) for x in xs):
             scene.set_particles(np.concatenate(xs), np.concatenate(rs), np.concatenate(cs))
         else:
