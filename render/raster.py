@@ -272,18 +272,18 @@ def _lit_fraction(p, n, lbasis, lmap, size: ti.i32, shadow: ti.template()):
     d = q[2] + texel
     cx = ti.cast(ti.floor(q[0]), ti.i32)
     cy = ti.cast(ti.floor(q[1]), ti.i32)
-    k = ti.static(SHADOW_FILTER)
+    k = SHADOW_FILTER
     lit = 1.0
     if -k <= cx and cx < size + k and -k <= cy and cy < size + k:  # outside the map nothing is above p
         # the filter's four corner taps agree away from a shadow's rim: then the whole filter does
         corners = 0.0
-        for i, j in ti.static(ti.ndrange(2, 2)):
-            corners += _tap(cx + (2 * i - 1) * k, cy + (2 * j - 1) * k, d, size, shadow)
+        for c in range(4):
+            corners += _tap(cx + (2 * (c % 2) - 1) * k, cy + (2 * (c // 2) - 1) * k, d, size, shadow)
         lit = corners / 4.0
         if 0.0 < corners and corners < 4.0:
             lit = 0.0
-            for i, j in ti.static(ti.ndrange((-k, k + 1), (-k, k + 1))):
-                lit += _tap(cx + i, cy + j, d, size, shadow)
+            for t in range((2 * k + 1) ** 2):  # runtime loops: a small kernel to compile
+                lit += _tap(cx + t % (2 * k + 1) - k, cy + t // (2 * k + 1) - k, d, size, shadow)
             lit /= (2 * k + 1) ** 2
     return lit
 
@@ -366,15 +366,33 @@ def _k_shade(w_px: ti.i32, h_px: ti.i32, n_tri: ti.i32, n_p: ti.i32, eye: ti.mat
         d = right * (ndc_x / ndc_sx) + up * (ndc_y / ndc_sy) - back  # view ray through the pixel
         to_eye = -d.normalized()
         col = background
-        if key != 0:
-            pid = ti.cast(key & ti.i64(ID_MASK), ti.i32) - 1
-            if pid < n_tri:
-                u, v, p = _triangle_hit(pid, d, eye, corner_x)
+        # the surface under the pixel: the opaque one (triangle or particle), then the see-through
+        # triangle in front of it; one call site of _shade_point keeps the kernel small to compile
+        for layer in range(2):
+            k = key if layer == 0 else pix_key_t[py, px]
+            pid = ti.cast(k & ti.i64(ID_MASK), ti.i32) - 1
+            if k == 0 or (layer == 1 and k <= key):  # nothing there, or the see-through one is behind
+                continue
+            if layer == 0 and pid >= n_tri + n_p:
+                col = line_color[2 * (pid - n_tri - n_p)]
+                continue
+            c = ti.Vector([0.0, 0.0, 0.0])
+            n = ti.Vector([0.0, 0.0, 1.0])
+            p = ti.Vector([0.0, 0.0, 0.0])
+            rough = 0.6
+            opacity = 1.0
+            sided = two_sided
+            if layer == 1 or pid < n_tri:
+                u, v, hit = _triangle_hit(pid, d, eye, corner_x)
                 c = (1.0 - u - v) * corner_color[3 * pid] + u * corner_color[3 * pid + 1] + v * corner_color[
                     3 * pid + 2]
-                col = _shade_point(c, corner_n[3 * pid], p, to_eye, corner_look[3 * pid][0], two_sided, lt,
-                                   lbasis, lmap, size, shadow)
-            elif pid < n_tri + n_p:
+                n = corner_n[3 * pid]
+                p = hit
+                rough = corner_look[3 * pid][0]
+                opacity = corner_look[3 * pid][1]
+                if layer == 1:
+                    sided = 1  # both faces of a pane are lit
+            else:
                 i = pid - n_tri
                 r = particle_r[i]
                 cv, w, sx, sy = _particle_screen(particle_x[i], view_t, w_px, h_px, ndc_sx, ndc_sy)
@@ -383,18 +401,15 @@ def _k_shade(w_px: ti.i32, h_px: ti.i32, n_tri: ti.i32, n_p: ti.i32, eye: ti.mat
                 dy = (py + 0.5 - sy) / rad
                 nz = ti.sqrt(ti.max(1.0 - dx * dx - dy * dy, 0.0))
                 n = right * dx - up * dy + back * nz  # sphere normal under the pixel, world frame
-                col = _shade_point(particle_color[i], n, particle_x[i] + r * n, to_eye, 0.6, 0, lt, lbasis, lmap,
-                                   size, shadow)
+                c = particle_color[i]
+                p = particle_x[i] + r * n
+                sided = 0
+            shaded = _shade_point(c, n, p, to_eye, rough, sided, lt, lbasis, lmap, size, shadow)
+            if layer == 0:
+                col = shaded
             else:
-                col = line_color[2 * (pid - n_tri - n_p)]
+                col = opacity * shaded + (1.0 - opacity) * col
         key_t = pix_key_t[py, px]
-        if key_t > key:  # a see-through surface in front of the opaque one (reversed Z: larger is nearer)
-            pid = ti.cast(key_t & ti.i64(ID_MASK), ti.i32) - 1
-            u, v, p = _triangle_hit(pid, d, eye, corner_x)
-            c = (1.0 - u - v) * corner_color[3 * pid] + u * corner_color[3 * pid + 1] + v * corner_color[3 * pid + 2]
-            look = corner_look[3 * pid]
-            ct = _shade_point(c, corner_n[3 * pid], p, to_eye, look[0], 1, lt, lbasis, lmap, size, shadow)
-            col = look[1] * ct + (1.0 - look[1]) * col
         pix_rgb[py, px] = col
         pix_id[py, px] = ti.cast((key & ti.i64(ID_MASK)) * 7919 + (key_t & ti.i64(ID_MASK)), ti.i32)  # edge filter
         pix_key[py, px] = 0  # cleared for the next frame: no separate fill pass
