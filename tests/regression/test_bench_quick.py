@@ -29,6 +29,8 @@ SECTIONS = {
 NUMBER = re.compile(r"^[+-]?(\d{1,3}(,\d{3})+|\d+)(\.\d+)?([eE][+-]?\d+)?$")
 BAD = re.compile(r"\b(nan|inf|-inf)\b", re.IGNORECASE)
 
+pytestmark = pytest.mark.slow  # the quick report takes about 90 s: CI's slow pass runs it
+
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):

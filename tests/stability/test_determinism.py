@@ -41,6 +41,7 @@ def run_in_process(out, scene: str, frames: int, extra=()) -> dict:
     return stats
 
 
+@pytest.mark.slow  # about 20-40 s: runs in CI's slow pass (.ci/run)
 def test_two_processes_give_identical_runs(tmp_path):
     a = run_in_process(tmp_path / "a", "glass_r3", 8)
     b = run_in_process(tmp_path / "b", "glass_r3", 8)

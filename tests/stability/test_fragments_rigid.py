@@ -30,6 +30,7 @@ def energies(w: RigidWorld, bodies: list[int]) -> tuple[float, np.ndarray]:
     return float(e), np.array(rot)
 
 
+@pytest.mark.slow  # about 20-40 s: runs in CI's slow pass (.ci/run)
 def test_single_tet_and_needle_fragments_over_1000_steps():
     """Three single-tet bodies (one boundary sphere each), a 20:1 needle and a 100:1 needle (inertia
     floored), thrown spinning at the ground and at each other. Every step: finite; total energy never

@@ -36,6 +36,7 @@ def settle(nc: int, t_end: float = 0.25) -> tuple[float, float, float]:
         eff.release()
 
 
+@pytest.mark.slow  # about 20-40 s: runs in CI's slow pass (.ci/run)
 def test_undamped_energy_and_first_period():
     """Released from rest with gravity on at t = 0, no damping, coarse beam (nc = 4, 688 particles).
 
