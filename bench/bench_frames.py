@@ -6,9 +6,10 @@ Each scene runs headless as `main.py run` does (studio look: shadow map, highlig
 the following camera) over a window from frame 0 to its first fracture event plus AFTER_EVENT frames
 (at most MAX_FRAMES). Per frame it times `World.step_frame` (simulation) and the frame (surfaces
 refreshed when fracture changed them, camera, rasteriser; no PNG encoding). Reported: medians per
-frame (compile spikes after a buffer grows do not count), the render / simulation ratio against the
-target (< 1/4 for Pots at 1280x720), and frames per second with and without rendering beside the
-paper's Table 2 average frame rate (Xeon W3530 + GTX 760; which counts no rendering).
+frame, and means after frame 0 (which compiles everything; later compile spikes, when a buffer
+grows, do count: a user waits for them); the render / simulation ratio of the means against the target
+(< 1/4 for Pots at 1280x720); frames per second with and without rendering beside the paper's
+Table 2 average frame rate (Xeon W3530 + GTX 760; which counts no rendering).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ if str(ROOT) not in sys.path:
 
 from bench.study_common import clock, md_table  # noqa: E402
 
-AFTER_EVENT = 10  # frames measured after the first fracture event
+AFTER_EVENT = 30  # frames measured after the first fracture event (pieces falling, breaking again)
 MAX_FRAMES = 60  # bound of the window
 TARGET_RATIO = 0.25  # render time / simulation time per frame the issue asks for (Pots, 1280x720)
 PAPER_FPS = {"pot": 10.2, "pot_basic": 10.2, "glass_r3": 36.8, "glass_r5": 36.8, "pots": 1.3, "pet": 1.2,
@@ -68,8 +69,9 @@ def measure(name: str, width: int, height: int, max_frames: int) -> dict:
         view.release()
         world.release()
     s, r = statistics.median(sim), statistics.median(ren)
-    return dict(scene=name, frames=len(sim), triangles=tris, sim_ms=1e3 * s, render_ms=1e3 * r, ratio=r / s,
-                fps_sim=1.0 / s, fps_both=1.0 / (s + r))
+    sm, rm = statistics.fmean(sim[1:] or sim), statistics.fmean(ren[1:] or ren)  # frame 0 compiles
+    return dict(scene=name, frames=len(sim), triangles=tris, sim_ms=1e3 * s, render_ms=1e3 * r, sim_mean_ms=1e3 * sm,
+                render_mean_ms=1e3 * rm, ratio=rm / sm, fps_sim=1.0 / sm, fps_both=1.0 / (sm + rm))
 
 
 def main(argv=None) -> int:
@@ -89,12 +91,15 @@ def main(argv=None) -> int:
     for name in names:
         m = measure(name, width, height, MAX_FRAMES)
         rows.append([m["scene"], m["frames"], f"{m['triangles']:,}", f"{m['sim_ms']:.1f}", f"{m['render_ms']:.1f}",
-                     f"{m['ratio']:.2f}", f"{m['fps_sim']:.2f}", f"{m['fps_both']:.2f}", PAPER_FPS.get(name, "")])
+                     f"{m['sim_mean_ms']:.1f}", f"{m['render_mean_ms']:.1f}", f"{m['ratio']:.2f}",
+                     f"{m['fps_sim']:.2f}", f"{m['fps_both']:.2f}", PAPER_FPS.get(name, "")])
         print(f"{name}: sim {m['sim_ms']:.1f} ms, render {m['render_ms']:.1f} ms per frame", file=sys.stderr)
     print(f"Simulation vs rendering per frame, {width}x{height}, CPU ({runtime().device}, "
-          f"{args.threads} thread(s)); medians over the window; target render/sim < {TARGET_RATIO} (Pots)\n")
-    print(md_table(["scene", "frames", "triangles drawn", "simulation ms", "rendering ms", "render / sim",
-                    "fps sim only", "fps with frames", "paper fps (Table 2)"], rows))
+          f"{args.threads} thread(s)); per frame: medians, and means after frame 0 (which compiles); "
+          f"target: mean render / mean simulation < {TARGET_RATIO} (Pots)\n")
+    print(md_table(["scene", "frames", "triangles drawn", "sim median ms", "render median ms", "sim mean ms",
+                    "render mean ms", "render / sim (means)", "fps sim only", "fps with frames",
+                    "paper fps (Table 2)"], rows))
     return 0
 
 

@@ -32,6 +32,7 @@ from sim.errors import ConfigError
 from sim.runtime import numpy_float
 
 MIN_CAPACITY = 64  # slots: smallest tree allocated for any kind
+BOUNDS_BLOCK = 1024  # corners reduced per parallel task in body_bounds
 
 
 @dataclass
@@ -156,16 +157,25 @@ def _k_transform(n_tri: ti.i32, n_body: ti.i32, corner_ref: ti.template(), corne
 def _k_body_bounds(n_tri: ti.i32, n_p: ti.i32, corner_x: ti.template(), corner_body: ti.template(),
                      particle_x: ti.template(), particle_r: ti.template(), bounds: ti.template()):
     """World box of the bodies' triangles (not static world geometry such as the floor) and of n_p
-    particles: bounds[0] = lo, bounds[1] = hi (reset by the caller)."""
-    for c in range(3 * n_tri):
-        if corner_body[c] >= 0:
-            for k in ti.static(range(3)):
-                ti.atomic_min(bounds[0][k], corner_x[c][k])
-                ti.atomic_max(bounds[1][k], corner_x[c][k])
-    for i in range(n_p):
+    particles: bounds[0] = lo, bounds[1] = hi (reset by the caller). Each parallel task reduces a
+    block of BOUNDS_BLOCK corners in registers and then updates the box once: one atomic per block
+    instead of one per corner (they all hit the same six numbers)."""
+    nc = 3 * n_tri
+    for blk in range((nc + n_p + BOUNDS_BLOCK - 1) // BOUNDS_BLOCK):
+        lo = ti.Vector([1e30, 1e30, 1e30])
+        hi = -lo
+        for j in range(blk * BOUNDS_BLOCK, ti.min((blk + 1) * BOUNDS_BLOCK, nc + n_p)):
+            if j < nc:
+                if corner_body[j] >= 0:
+                    lo = ti.min(lo, corner_x[j])
+                    hi = ti.max(hi, corner_x[j])
+            else:
+                r = particle_r[j - nc]
+                lo = ti.min(lo, particle_x[j - nc] - r)
+                hi = ti.max(hi, particle_x[j - nc] + r)
         for k in ti.static(range(3)):
-            ti.atomic_min(bounds[0][k], particle_x[i][k] - particle_r[i])
-            ti.atomic_max(bounds[1][k], particle_x[i][k] + particle_r[i])
+            ti.atomic_min(bounds[0][k], lo[k])
+            ti.atomic_max(bounds[1][k], hi[k])
 
 
 @ti.kernel

@@ -35,6 +35,61 @@ def world_surfaces(world):
     return fragment_surfaces(ps, labels)
 
 
+class SurfaceCache:
+    """Fragment surfaces rebuilt only for the bodies a fracture changed. A body's closed surface
+    (geometry.surface.fragment_surfaces, which treats every label on its own) depends only on its
+    alive particles, their face links and their extra links; bodies whose signature of those is
+    unchanged keep their cached mesh. `surfaces(world)` equals `world_surfaces(world)` (tested)."""
+
+    def __init__(self) -> None:
+        self._bodies: dict[int, tuple] = {}  # body -> (signature, verts, faces, face_id)
+
+    def surfaces(self, world):
+        from geometry.surface import SurfaceMesh, fragment_surfaces
+
+        ps = world.particles
+        labels = np.where(ps.alive, ps.body, -1).astype(np.int64)
+        idx = np.flatnonzero(labels >= 0)
+        order = idx[np.argsort(labels[idx], kind="stable")]
+        bodies, starts = np.unique(labels[order], return_index=True)
+        members = np.split(order, starts[1:]) if len(order) else []
+        ex = ps.extra_links
+        ex_lab = labels[ex[:, 0]] if len(ex) else np.zeros(0, np.int64)
+        ex_order = np.argsort(ex_lab, kind="stable")
+        ex_bodies, ex_starts = np.unique(ex_lab[ex_order], return_index=True)
+        ex_rows = dict(zip(ex_bodies.tolist(), np.split(ex[ex_order], ex_starts[1:]))) if len(ex) else {}
+        signature, changed = {}, []
+        for b, ids in zip(bodies.tolist(), members):
+            sig = hash((ids.tobytes(), ps.links[ids].tobytes(), ex_rows.get(b, ex[:0]).tobytes()))
+            signature[b] = sig
+            if self._bodies.get(b, (None,))[0] != sig:
+                changed.append(b)
+        self._bodies = {b: v for b, v in self._bodies.items() if b in signature}
+        if changed:
+            sub = np.where(np.isin(labels, changed), labels, -1)
+            mesh = fragment_surfaces(ps, sub)
+            for b in changed:
+                f = mesh.faces[mesh.face_label == b]
+                used, inv = np.unique(f, return_inverse=True)
+                self._bodies[b] = (signature[b], mesh.verts[used], inv.reshape(-1, 3),
+                                   mesh.face_id[mesh.face_label == b])
+        verts, faces, face_id, vlab, flab = [], [], [], [], []
+        offset = 0
+        for b in bodies.tolist():
+            _, v, f, fid = self._bodies[b]
+            verts.append(v)
+            faces.append(f + offset)
+            face_id.append(fid)
+            vlab.append(np.full(len(v), b, np.int64))
+            flab.append(np.full(len(f), b, np.int64))
+            offset += len(v)
+        if not verts:
+            e = np.zeros(0, np.int64)
+            return SurfaceMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), e, e, face_id=e)
+        return SurfaceMesh(verts=np.concatenate(verts), faces=np.concatenate(faces), face_label=np.concatenate(flab),
+                           vert_label=np.concatenate(vlab), face_id=np.concatenate(face_id))
+
+
 def rest_surface(world) -> np.ndarray:
     """(T, 3, 3) m: the objects' surface before anything broke, in the reference frame: the faces of
     the built tets (particles 0 .. physical_count - 1) that no other built tet shares."""
@@ -107,6 +162,7 @@ class SceneView:
         size = float(np.ptp(self._rest_tris.reshape(-1, 3), axis=0).max()) if len(self._rest_tris) else 1.0
         self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
+        self._surfaces = SurfaceCache()
         self.refresh()
 
     def _outer_faces(self, mesh) -> np.ndarray:
@@ -151,7 +207,7 @@ class SceneView:
         w = self.world
         if "rigid" in w.stages:
             if w.surface_version != self._version:
-                self.scene.set_surfaces(self._floor + self._surface_parts(world_surfaces(w)))
+                self.scene.set_surfaces(self._floor + self._surface_parts(self._surfaces.surfaces(w)))
                 self._version = w.surface_version
             s = w.rigid._s
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)

@@ -110,3 +110,25 @@ def test_crack_face_pixels_take_the_crack_shade(split_world):
         r.release()
     want = np.rint(np.array([0.2, 0.6, 0.3]) * 255)
     assert np.abs(img[24, 32] - want).max() <= 2
+
+
+def _faces_by_label(mesh) -> list:
+    tri = mesh.verts[mesh.faces]
+    key = np.concatenate([mesh.face_label[:, None].astype(float), tri.reshape(-1, 9), mesh.face_id[:, None]], 1)
+    return sorted(map(tuple, key.tolist()))
+
+
+def test_surface_cache_equals_a_full_rebuild(taichi_runtime):
+    """Surfaces rebuilt only for the bodies a fracture changed are the full rebuild's, face for face,
+    through the glass pane's event (cracks, subdivision, shatter) and the frames after it."""
+    from render.session import SurfaceCache, world_surfaces
+
+    world = World(load_scene("glass_r3"))
+    cache = SurfaceCache()
+    try:
+        for _ in range(5):
+            world.step_frame()
+            assert _faces_by_label(cache.surfaces(world)) == _faces_by_label(world_surfaces(world))
+        assert world.events and world.fragment_count() > 2
+    finally:
+        world.release()
