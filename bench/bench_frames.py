@@ -35,18 +35,12 @@ QUICK_SCENES = ("pot", "glass_r3")
 
 
 def measure(name: str, width: int, height: int, max_frames: int) -> dict:
-    from render.framing import FollowCamera
-    from render.raster import RasterRenderer
-    from render.session import SceneView, camera_for, floor_height
+    from render.session import HeadlessSession
     from scenes.loader import load_scene
     from sim.world import World
 
-    cfg = load_scene(name)
-    world = World(cfg)
-    view = SceneView(world)
-    framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
-                           follow=cfg.camera.mode == "follow")
-    renderer = RasterRenderer(width, height)
+    world = World(load_scene(name))
+    session = HeadlessSession(world, "raster", width, height)
     sim, ren = [], []
     end = max_frames
     try:
@@ -54,8 +48,7 @@ def measure(name: str, width: int, height: int, max_frames: int) -> dict:
             t0 = clock()
             world.step_frame()
             t1 = clock()
-            view.refresh()
-            renderer.render(view.scene, framing.update(*view.scene.body_bounds()))
+            session.draw()
             t2 = clock()
             sim.append(t1 - t0)
             ren.append(t2 - t1)
@@ -63,10 +56,9 @@ def measure(name: str, width: int, height: int, max_frames: int) -> dict:
                 end = min(max_frames, world.events[0]["frame"] + 1 + AFTER_EVENT)
             if f + 1 >= end:
                 break
-        tris = view.scene.n_tris
+        tris = session.view.scene.n_tris
     finally:
-        renderer.release()
-        view.release()
+        session.close()
         world.release()
     s, r = statistics.median(sim), statistics.median(ren)
     sm, rm = statistics.fmean(sim[1:] or sim), statistics.fmean(ren[1:] or ren)  # frame 0 compiles

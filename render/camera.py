@@ -35,6 +35,13 @@ def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     return v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1.0 - c)
 
 
+def box_corners(lo, hi) -> np.ndarray:
+    """(8, 3): the corners of the axis-aligned box [lo, hi]."""
+    lo = np.asarray(lo, dtype=np.float64).reshape(3)
+    hi = np.asarray(hi, dtype=np.float64).reshape(3)
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
 @dataclass
 class Camera:
     """Perspective camera: eye, target, up (world, metres), vertical fov (deg), near/far (m)."""
@@ -181,20 +188,26 @@ class Camera:
             raise ConfigError("camera.fit margin", margin, ">= 1")
         centre = 0.5 * (lo + hi)
         pad = 1e-6 * max(float(np.linalg.norm(hi - lo)), 1.0)  # a point still gets a finite distance
-        corners = np.array([[x, y, z] for x in (lo[0] - pad, hi[0] + pad) for y in (lo[1] - pad, hi[1] + pad)
-                            for z in (lo[2] - pad, hi[2] + pad)]) - centre
-        r, u, b = self.basis()  # the current view direction is kept
-        proj = self.projection_matrix(aspect)
-        sx, sy = proj[0, 0], proj[1, 1]
-        x, y, zb = corners @ r, corners @ u, corners @ b
-        dist = float(np.max(zb + margin * np.maximum(np.abs(x) * sx, np.abs(y) * sy)))
-        dist = max(dist, float(np.max(zb)) + pad)
+        corners = box_corners(lo - pad, hi + pad) - centre
+        b = self.basis()[2]  # the current view direction is kept
+        zb = corners @ b
+        dist = max(self.fit_distance(lo - pad, hi + pad, centre, aspect, margin), float(np.max(zb)) + pad)
         self.target = centre
         self.eye = centre + b * dist
         if set_clip:
             self.near = max(0.5 * (dist - float(np.max(zb))), 1e-3 * dist)
             self.far = max(self.far, 2.0 * (dist - float(np.min(zb))))
         return self
+
+    def fit_distance(self, lo, hi, target, aspect: float, margin: float = 1.0) -> float:
+        """Smallest eye distance from `target` along the current view axis at which every corner of
+        the box [lo, hi] projects inside the image shrunk by `margin`: per corner (x, y, z_back) in the
+        view basis about the target, d >= z_back + margin max(|x| sx, |y| sy)."""
+        corners = box_corners(lo, hi) - np.asarray(target, dtype=np.float64)
+        r, u, b = self.basis()
+        proj = self.projection_matrix(aspect)
+        x, y, zb = corners @ r, corners @ u, corners @ b
+        return float(np.max(zb + margin * np.maximum(np.abs(x) * proj[0, 0], np.abs(y) * proj[1, 1])))
 
     # ---- GGUI ------------------------------------------------------------------------------------
     def to_ggui(self, cam) -> None:

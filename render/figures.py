@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.output import atomic_write_bytes, atomic_write_text
-from sim.run import SETTLED_S
+from sim.run import SETTLED_S, SettleClock
 
 DURING_FRAMES = 6  # frames after the first fracture event shown as "during"
 PANEL_PX = (480, 360)  # px: one frame of the sheet (width, height)
@@ -104,43 +104,35 @@ def run_row(row: Row, frames: int | None = None, progress: bool = True) -> dict:
     """Run one scene; returns its before/during/after frames, counts and the frame numbers."""
     from tqdm import tqdm
 
-    from render.framing import FollowCamera
-    from render.raster import RasterRenderer
-    from render.session import SceneView, camera_for, floor_height
+    from render.session import HeadlessSession
     from scenes.loader import load_scene
     from sim.world import World
 
     cfg = load_scene(row.scene)
     n = frames or cfg.scene.frames
-    w, h = PANEL_PX
     world = World(cfg)
-    view = SceneView(world)
-    framing = FollowCamera(camera_for(world, w / h), w / h, floor_height(world), follow=cfg.camera.mode == "follow")
-    renderer = RasterRenderer(w, h)
+    session = HeadlessSession(world, "raster", *PANEL_PX)
+    settle = SettleClock(cfg.scene.fps)
     shots: dict[str, tuple[int, np.ndarray]] = {}
     previous = None
-    settled = 0
     try:
         for f in tqdm(range(n), desc=f"figures: {row.scene}", unit="frame", disable=not progress, file=sys.stderr):
             had_events = bool(world.events)
             world.step_frame()
-            view.refresh()
-            img = renderer.render(view.scene, framing.update(*view.scene.body_bounds()))
+            img = session.draw()
             if world.events and not had_events:
                 shots["before"] = previous if previous is not None else (f, img)
             if "before" in shots and "during" not in shots and f >= world.events[0]["frame"] + DURING_FRAMES:
                 shots["during"] = (f, img)
             previous = (f, img)
-            settled = settled + 1 if world.settled() else 0
-            if settled >= max(1, round(SETTLED_S * cfg.scene.fps)):
+            if settle.tick(world):
                 break
         shots["after"] = previous
         shots.setdefault("before", shots["after"])
         shots.setdefault("during", shots["after"])
         pieces = world.pieces()
     finally:
-        renderer.release()
-        view.release()
+        session.close()
         world.release()
     return dict(shots=shots, pieces=pieces, events=len(world.events))
 

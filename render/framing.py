@@ -22,18 +22,6 @@ SMOOTHING = 0.08  # -: share of the way to the goal travelled per frame (time co
 MIN_EXTENT_M = 0.05  # m: the framed box is at least this big (a resting coin is not filled edge to edge)
 
 
-def required_distance(cam: Camera, lo, hi, target, aspect: float, margin: float = MARGIN) -> float:
-    """Smallest eye distance from `target` (along the camera's view axis) at which every corner of
-    the box [lo, hi] projects inside the image shrunk by `margin` (the closed form of Camera.fit)."""
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    corners = corners - np.asarray(target, dtype=np.float64)
-    r, u, b = cam.basis()
-    proj = cam.projection_matrix(aspect)
-    sx, sy = proj[0, 0], proj[1, 1]
-    x, y, zb = corners @ r, corners @ u, corners @ b
-    return float(np.max(zb + margin * np.maximum(np.abs(x) * sx, np.abs(y) * sy)))
-
-
 class FollowCamera:
     """Per-frame camera for headless runs (module docstring). `update(lo, hi)` -> Camera."""
 
@@ -66,7 +54,7 @@ class FollowCamera:
             self._target = self._target + SMOOTHING * (goal.target - self._target)
             self._dist = self._dist + SMOOTHING * (goal_dist - self._dist)
         cam = self.camera
-        self._dist = max(self._dist, required_distance(cam, lo, hi, self._target, self.aspect))
+        self._dist = max(self._dist, cam.fit_distance(lo, hi, self._target, self.aspect, MARGIN))
         _, _, back = self.base.basis()
         cam.target = self._target.copy()
         cam.eye = self._target + back * self._dist

@@ -34,7 +34,7 @@ Output: an (H, W, 3) uint8 array, row 0 at the top, colours rounded from [0, 1].
 import numpy as np
 import taichi as ti
 
-from render.camera import Camera
+from render.camera import Camera, box_corners
 from render.scene_data import RenderScene
 from sim.errors import ConfigError
 
@@ -488,8 +488,7 @@ class RasterRenderer:
         lo, hi = scene.body_bounds(particles=True)
         if not np.all(hi >= lo):
             return off
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        q = corners @ basis.T
+        q = box_corners(lo, hi) @ basis.T
         q_lo, q_hi = q.min(0), q.max(0)
         extent = max(float(np.max(q_hi[:2] - q_lo[:2])), 1e-6) * (1.0 + 2.0 * SHADOW_MARGIN)
         centre = 0.5 * (q_lo + q_hi)

@@ -91,15 +91,12 @@ class SurfaceCache:
 
 
 def rest_surface(world) -> np.ndarray:
-    """(T, 3, 3) m: the objects' surface before anything broke, in the reference frame: the faces of
-    the built tets (particles 0 .. physical_count - 1) that no other built tet shares."""
+    """(T, 3, 3) m: the objects' surface before anything broke, in the reference frame: the built
+    tets' faces that had no face neighbour (World.rest_open_faces)."""
     from geometry.subdivision import face_points
 
-    tri = face_points(world.particles.rest_verts[: world.physical_count]).reshape(-1, 3, 3)
-    order = np.lexsort((tri[..., 2], tri[..., 1], tri[..., 0]), axis=1)  # the corners in a fixed order
-    key = np.take_along_axis(tri, order[..., None], axis=1).reshape(len(tri), 9)
-    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return tri[cnt[inv.ravel()] == 1]
+    p, k = np.nonzero(world.rest_open_faces)
+    return face_points(world.particles.rest_verts[p])[np.arange(len(p)), k]
 
 
 def material_looks(world) -> list:
@@ -228,9 +225,12 @@ class SceneView:
 
 
 class HeadlessSession:
-    """Writes one PNG per frame (and a video) for a World."""
+    """The frames of a World: `draw()` brings the view up to date, moves the following camera and
+    renders (None with the 'none' renderer); with an output folder, `write_frame()` also writes one
+    PNG per frame (and a video). Without one (out=None) nothing is written: the figure sheet, the
+    frame benchmark and the framing test draw frames in memory."""
 
-    def __init__(self, world, kind: str, width: int, height: int, out: Path, video: str,
+    def __init__(self, world, kind: str, width: int, height: int, out: Path | None = None, video: str = "none",
                  colors: str = "material") -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
@@ -240,13 +240,18 @@ class HeadlessSession:
         self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
                                     follow=world.cfg.camera.mode == "follow")
         self.camera = self.framing.camera
-        self.frames = PngSequenceWriter(Path(out) / "frames")
-        self.video = make_writer(video, out, fps=world.cfg.scene.fps, stem=world.cfg.scene.name)
+        self.frames = PngSequenceWriter(Path(out) / "frames") if out is not None else None
+        self.video = None
+        if out is not None:
+            self.video = make_writer(video, out, fps=world.cfg.scene.fps, stem=world.cfg.scene.name)
 
-    def write_frame(self) -> np.ndarray:
+    def draw(self) -> np.ndarray | None:
         self.view.refresh()
         self.camera = self.framing.update(*self.view.scene.body_bounds())
-        img = self.renderer.render(self.view.scene, self.camera)
+        return self.renderer.render(self.view.scene, self.camera)
+
+    def write_frame(self) -> np.ndarray:
+        img = self.draw()
         self.frames.write(img)
         if self.video is not None:
             self.video.write(img)
@@ -255,6 +260,7 @@ class HeadlessSession:
     def close(self) -> None:
         if self.video is not None:
             self.video.close()
-        self.frames.close()
+        if self.frames is not None:
+            self.frames.close()
         self.renderer.release()
         self.view.release()

@@ -28,6 +28,19 @@ STATS_VERSION = 1
 SETTLED_S = 1.0  # s: a run ends once every body has been asleep (and the debris at rest) this long
 
 
+class SettleClock:
+    """Counts the consecutive frames in which nothing moved (World.settled); `tick(world)` is True
+    once that has lasted SETTLED_S."""
+
+    def __init__(self, fps: float) -> None:
+        self.needed = max(1, round(SETTLED_S * fps))
+        self.frames = 0
+
+    def tick(self, world) -> bool:
+        self.frames = self.frames + 1 if world.settled() else 0
+        return self.frames >= self.needed
+
+
 @dataclass
 class RunOptions:
     out: Path
@@ -119,13 +132,12 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
     done = 0
     interrupted = False
     bar = tqdm(total=frames, desc=cfg.scene.name, unit="frame", disable=not opts.progress, file=sys.stderr)
-    settled_frames = 0  # consecutive frames in which nothing moved
+    settle = SettleClock(cfg.scene.fps)
     stopped = None
     try:
         for _ in range(frames):
             world.step_frame()
             done += 1
-            settled_frames = settled_frames + 1 if opts.until_settled and world.settled() else 0
             if renderer is not None:
                 renderer.write_frame()
             if opts.meshes != "none" or opts.vtu:
@@ -134,7 +146,7 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
                 write_frame_exports(world, out, done - 1, opts.meshes, opts.vtu)
             bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
             bar.update(1)
-            if settled_frames >= max(1, round(SETTLED_S * cfg.scene.fps)):
+            if opts.until_settled and settle.tick(world):
                 stopped = f"settled: nothing moved for {SETTLED_S:g} s"
                 break
     except KeyboardInterrupt:

@@ -209,6 +209,9 @@ class World:
         for k, sp in enumerate(self._spawn):
             self.particles.body[sp["start"]:sp["stop"]] = k
         self.physical_count = len(self.particles)
+        # (P, 4) bool: tet faces with no face neighbour when built, i.e. the objects' surface at rest
+        # (render/session.py tells crack faces from it)
+        self.rest_open_faces = self.particles.links < 0
         # per scene object: one copy's mass (kg) and whether it can break (pieces by size class)
         self.object_mass: dict[int, float] = {}  # kg
         self.object_particle_volume: dict[int, float] = {}  # m^3: mean physical particle volume

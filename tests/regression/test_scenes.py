@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from render.framing import FollowCamera
-from render.session import SceneView, camera_for, floor_height
+from render.camera import box_corners
+from render.session import HeadlessSession
 from scenes.loader import load_scene, scene_names
 from sim.world import World
 
@@ -17,12 +17,10 @@ FAST = [n for n in scene_names() if n not in ("pots", "pet")]
 W, H = 640, 480  # px: the default frame size of `main.py run`
 
 
-def _bodies_in_view(view: SceneView, framing: FollowCamera) -> bool:
+def _bodies_in_view(session: HeadlessSession) -> bool:
     """Every corner of the bodies' world bounds projects inside the frame of the following camera."""
-    lo, hi = view.scene.body_bounds()
-    cam = framing.update(lo, hi)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    px, _, _ = cam.project(corners, W, H)
+    session.draw()
+    px, _, _ = session.camera.project(box_corners(*session.view.scene.body_bounds()), W, H)
     return bool(np.all((px >= 0.0) & (px <= [W, H])))
 
 
@@ -30,19 +28,17 @@ def run_scene(name: str) -> World:
     """Run the scene's test frames, following it with the headless camera (checked at both ends)."""
     cfg = load_scene(name)
     world = World(cfg)
-    view = SceneView(world) if "rigid" in world.stages else None
-    framing = FollowCamera(camera_for(world, W / H), W / H, floor_height(world), follow=cfg.camera.mode == "follow")
+    session = HeadlessSession(world, "none", W, H) if "rigid" in world.stages else None
     frames = cfg.scene.test_frames or cfg.scene.frames
     try:
         for f in range(frames):
-            if view is not None:
-                view.refresh()
-                in_view = _bodies_in_view(view, framing)
+            if session is not None:
+                in_view = _bodies_in_view(session)
                 assert in_view or f not in (0, frames - 1) or cfg.camera.mode == "fixed", (name, f)
             world.step_frame()
     finally:
-        if view is not None:
-            view.release()
+        if session is not None:
+            session.close()
     return world
 
 

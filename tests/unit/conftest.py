@@ -1,4 +1,5 @@
-"""Fixtures shared by the rigid-body unit tests: one RigidWorld per test module, cleared per test."""
+"""Fixtures shared by the unit tests: one RigidWorld per test module, cleared per test (rigid-body
+tests); one RenderScene per test module (render tests)."""
 
 from __future__ import annotations
 
@@ -21,3 +22,12 @@ def fresh(world):
     world.clear()
     world.config = RigidConfig()
     return world
+
+
+@pytest.fixture(scope="module")
+def scene(taichi_runtime):
+    from render.scene_data import RenderScene
+
+    s = RenderScene()
+    yield s
+    s.release()

@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from render.camera import Camera
+from render.camera import Camera, box_corners
 from render.framing import MARGIN, SMOOTHING, FollowCamera
 
 W, H = 320, 240
 
 
 def _inside(cam: Camera, lo, hi) -> bool:
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    corners = box_corners(lo, hi)
     px, _, _ = cam.project(corners, W, H)
     return bool(np.all((px[:, 0] >= 0) & (px[:, 0] <= W) & (px[:, 1] >= 0) & (px[:, 1] <= H)))
 
@@ -48,7 +48,7 @@ def test_first_frame_is_fitted_tightly():
     base = Camera(eye=[0.0, 0.3, 1.0], target=[0.0, 0.0, 0.0], fov_deg=45.0)
     lo, hi = np.array([-0.1, 0.0, -0.1]), np.array([0.1, 0.2, 0.1])
     cam = FollowCamera(base, W / H, floor_y=0.0).update(lo, hi)
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    corners = box_corners(lo, hi)
     px, _, _ = cam.project(corners, W, H)
     half = np.array([W, H]) / 2
     reach = np.max(np.abs(px - half) / half)

@@ -10,7 +10,7 @@ from render.camera import Camera
 from render.ggui import vulkan_status
 from render.primitives import box_mesh
 from render.raster import RasterRenderer
-from render.scene_data import Lighting, MeshPart, RenderScene, disc_outline
+from render.scene_data import Lighting, MeshPart, disc_outline
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
 
 W, H = 320, 240
@@ -28,13 +28,6 @@ def renderers(taichi_runtime):
     yield g, r
     g.release()
     r.release()
-
-
-@pytest.fixture(scope="module")
-def scene(taichi_runtime):
-    s = RenderScene()
-    yield s
-    s.release()
 
 
 def _mask(img, scene):

@@ -28,13 +28,6 @@ def raster(taichi_runtime):
     r.release()
 
 
-@pytest.fixture(scope="module")
-def scene(taichi_runtime):
-    s = RenderScene()
-    yield s
-    s.release()
-
-
 def _top_camera() -> Camera:
     """Looking straight down at the floor: a figure on the floor keeps its centroid in the image."""
     return Camera(eye=[0.0, 1.5, 0.0], target=[0.0, 0.0, 0.0], up=[0.0, 0.0, -1.0], fov_deg=40.0, near=0.1, far=10.0)

@@ -37,13 +37,6 @@ def raster(taichi_runtime):
     r.release()
 
 
-@pytest.fixture(scope="module")
-def scene(taichi_runtime):
-    s = RenderScene()
-    yield s
-    s.release()
-
-
 def _front_camera(dist: float = 1.0) -> Camera:
     return Camera(eye=[0.0, 0.0, dist], target=[0.0, 0.0, 0.0], fov_deg=45.0, near=0.05, far=20.0)
 
