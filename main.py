@@ -30,8 +30,8 @@ def _init(args: argparse.Namespace) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from scenes.loader import load_scene
-    from sim.run import RunOptions, run
+    import anisofrac as af
+    from sim.run import RunOptions
 
     if args.frames is not None and args.frames < 1:
         from sim.errors import ConfigError
@@ -40,14 +40,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     overrides = list(args.set or [])
     if args.seed is not None:
         overrides.append(f"scene.seed={args.seed}")
-    cfg = load_scene(args.scene, overrides)  # validated before anything is built or written
+    cfg = af.load_config(args.scene, overrides)  # validated before anything is built or written
     _init(args)
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
                       progress=not args.no_progress, until_settled=not args.all_frames,
                       colors=args.colors)
-    stats = run(cfg, opts)
+    with af.Simulation(cfg) as sim:  # the Python API (docs/api.md)
+        stats = sim.run_headless(opts)
     t1 = stats["table1"]
     print(f"{cfg.scene.name}: {stats['frames']} frames, {t1['fragments']} fragments, "
           f"{len(stats['events'])} fracture events, {stats['timings']['average_fps']} frames/s -> {out}"
@@ -66,9 +67,9 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
-    from scenes.loader import load_scene
+    import anisofrac as af
 
-    cfg = load_scene(args.scene, list(args.set or []))
+    cfg = af.load_config(args.scene, list(args.set or []))
     _init(args)
     from render.viewer import run_viewer
 

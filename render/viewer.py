@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from anisofrac.simulation import Simulation
+from anisofrac.strikes import body_frames, breakable, to_reference
 from render.session import camera_for, debris_color
 from render.viewer_input import ZOOM_KEY_RATE, MouseState, drag_camera, poll
 from render.viewer_overlay import (
@@ -45,17 +47,13 @@ from render.viewer_world import (
     Tuning,
     ball_bodies,
     ball_radius,
-    body_frames,
-    breakable,
     copy_config,
     event_cracks,
     preview_strike,
     shoot_ball,
     strike,
-    to_reference,
 )
 from sim.errors import BackendError, SandboxError
-from sim.world import World
 
 BALL_START_RADII = 4.0  # ball radii: a shot ball starts this far in front of the eye (plus the near plane)
 PREVIEW_MOVE_M = 0.003  # m: the preview is recomputed when the hit point moves farther (reference frame)
@@ -117,7 +115,8 @@ class Viewer:
 
     # ------------------------------------------------------------------ world
     def _build_world(self) -> None:
-        self.world = World(copy_config(self.base_cfg))
+        self.sim = Simulation(copy_config(self.base_cfg))  # the Python API's object (docs/api.md)
+        self.world = self.sim.world
         self.view = ViewerScene(self.world)
         self.view.scene.line_width = LINE_WIDTH_PX
         self.preview = None
@@ -128,7 +127,7 @@ class Viewer:
     def reset_scene(self) -> None:
         """Rebuild the World from the scene file (sliders and toggles are kept)."""
         self.view.release()
-        self.world.release()
+        self.sim.close()
         self._build_world()
         self.say("scene reset")
 
@@ -484,7 +483,7 @@ class Viewer:
                 os.remove(self._imgui_ini)
             self.drawer.release()
         self.view.release()
-        self.world.release()
+        self.sim.close()
 
 
 def run_viewer(cfg, args) -> int:

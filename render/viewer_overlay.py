@@ -151,7 +151,7 @@ class ViewerScene(SceneView):
 # ----------------------------------------------------------------------------- overlays
 def particle_positions(world, frames, ids: np.ndarray) -> np.ndarray:
     """World centroids (len(ids), 3) of particles `ids` (each moved by its body's pose)."""
-    from render.viewer_world import to_world
+    from anisofrac.strikes import to_world
 
     ps = world.particles
     return to_world(frames, ps.body[ids], ps.centroid[ids]) if len(ids) else np.zeros((0, 3))
@@ -209,7 +209,7 @@ def ellipsoid_loops(centre, G: np.ndarray, R: np.ndarray, segments: int = LOOP_S
 
 def kernel_segments(world, frames, point, body: int, count: int = KERNEL_SAMPLES):
     """Kernel ellipsoids of the `count` live particles of `body` nearest the world `point`."""
-    from render.viewer_world import to_reference
+    from anisofrac.strikes import to_reference
 
     ps = world.particles
     G = getattr(world, "kernel_G", None)

@@ -5,14 +5,13 @@ material knobs, and preview a strike's crack analysis without applying it (no wi
   World (so it is drawn, collides through its boundary spheres, and sim.fracture_stage finds its
   material when it strikes a breakable body) and a rigid body moving along the camera ray. The
   ball's reference frame is its spawn pose; it is never breakable.
-* Striking (`strike`): `sim.fracture_stage.fracture_body(world, body, impact)` at a picked surface
-  point, with impact = dict(other=-1, speed, point, normal (inward), impulse): Algorithm 1 sees a
-  normal impact of a rigid flat anvil (other = -1: the first collider's Young's modulus, infinite mass
-  and radius) at the given speed. The event record is appended to `world.events` as the World does.
+* Striking (`strike`): the Python API's strike (anisofrac/strikes.py) at a picked surface point,
+  along its inward normal: Algorithm 1 sees a normal impact of a rigid flat anvil at the given speed.
+  The event record is appended to `world.events` as the World does.
 * Tuning (`Tuning`): crack count, tensile strength (a factor on each material's scene value) and a
   factor on the first kernel axis; they act on the next analysis (an impact, a strike or a preview).
-* Preview (`preview_strike`): `sim.fracture_stage.analyse` only, for a hypothetical strike, turned
-  into world-frame crack discs, groups and shatter radius for drawing.
+* Preview (`preview_strike`): the API's preview (the analysis only, nothing applied), turned into
+  world-frame crack discs, groups and shatter radius for drawing.
 
 Positions of rest data are in the reference frame; a body maps X to `R(q) (X - ref_com) + x`.
 """
@@ -25,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+# body frames, strikes and previews are the Python API's (anisofrac/strikes.py): the viewer builds on it
+from anisofrac.strikes import Preview, body_frames, breakable, crack_shapes
 from geometry.particles import build_particles
 from render.viewer_pick import Hit
 from sim.errors import ConfigError
@@ -36,43 +37,6 @@ BALL_RADIUS_RANGE_M = (0.005, 0.05)  # m: clamp of the ball radius
 BALL_SHELLS = 2  # -: Fibonacci shells of the ball's tet mesh
 BALL_POINTS = 40  # -: points on the outer shell
 BALL_KERNEL_SUPPORT = 2.0  # tet edges: isotropic kernel support of ball particles (never analysed)
-
-
-# ----------------------------------------------------------------------------- frames
-def body_frames(world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per body: rotation R (B, 3, 3), position x (B, 3) m, reference centre of mass (B, 3) m."""
-    from rigid.quat import quat_to_matrix
-
-    st = world.rigid.body_state()
-    nb = world.rigid.n_bodies
-    com = np.array([world.rigid.body_ref_com(b) for b in range(nb)]).reshape(nb, 3)
-    return quat_to_matrix(st.q).reshape(nb, 3, 3), np.asarray(st.x, dtype=np.float64).reshape(nb, 3), com
-
-
-def to_world(frames, body, X) -> np.ndarray:
-    """Reference points X (..., 3) of `body` (int or (...,) ids) -> world (m)."""
-    R, x, com = frames
-    X = np.asarray(X, dtype=np.float64)
-    b = np.asarray(body)
-    return np.einsum("...ij,...j->...i", R[b], X - com[b]) + x[b]
-
-
-def dir_to_world(frames, body, d) -> np.ndarray:
-    R = frames[0]
-    return np.einsum("...ij,...j->...i", R[np.asarray(body)], np.asarray(d, dtype=np.float64))
-
-
-def to_reference(frames, body: int, p, d=None):
-    """World point p (and direction d) -> reference frame of `body`."""
-    R, x, com = frames
-    pr = R[body].T @ (np.asarray(p, dtype=np.float64) - x[body]) + com[body]
-    return pr if d is None else (pr, R[body].T @ np.asarray(d, dtype=np.float64))
-
-
-def breakable(world, body: int) -> bool:
-    """True for a live, breakable body of the World (what a strike may break)."""
-    info = getattr(world, "bodies", {}).get(int(body))
-    return info is not None and info.breakable and bool(world.rigid.body_state().alive[int(body)])
 
 
 # ----------------------------------------------------------------------------- tuning
@@ -228,113 +192,31 @@ def ball_bodies(world) -> list[int]:
 
 
 # ----------------------------------------------------------------------------- striking
-def strike_impact(world, hit: Hit, speed: float) -> dict:
-    """The impact dict of sim.fracture_stage for a strike at `hit` (world point, inward normal = -face
-    normal) at `speed` m/s by a rigid flat anvil (other = -1); impulse = m v (kg m/s, for the record)."""
-    return dict(other=-1, speed=float(speed), point=np.asarray(hit.point, dtype=np.float64).copy(),
-                normal=-np.asarray(hit.normal, dtype=np.float64), impulse=world.rigid.body_mass(hit.body) * speed)
-
-
 def strike(world, hit: Hit, speed: float) -> dict | None:
-    """Apply a strike now (between frames): analyse, cut and split. Returns the event record (also
-    appended to world.events) or None when the analysis found no crack."""
-    from sim.fracture_stage import fracture_body
+    """Apply a strike at the picked surface point `hit` at `speed` m/s along its inward normal (the
+    API's anisofrac.strikes.strike). Returns the event record or None (no crack, or not breakable)."""
+    from anisofrac.strikes import strike as api_strike
 
     if not breakable(world, hit.body):
         return None
     if not speed > 0.0:
         raise ConfigError("viewer.strike_speed", speed, "> 0 m/s")
-    record = fracture_body(world, hit.body, strike_impact(world, hit, speed))
+    record = api_strike(world, hit.body, hit.point, -np.asarray(hit.normal, dtype=np.float64) * speed, "viewer")
     if record is not None:
         record["viewer_strike"] = True
-        world.events.append(record)
-        world.surface_version += 1
     return record
 
 
-# ----------------------------------------------------------------------------- preview
-@dataclass
-class CrackShape:
-    """A crack disc in the world frame, ready to draw."""
-
-    point: np.ndarray  # (3,) m: disc centre (the impact point)
-    normal: np.ndarray  # (3,) -: crack plane normal
-    r_outer: float  # m
-    side: np.ndarray | None  # (3,) -: half-disc side in the plane, None = full disc
-    r_inner: float  # m: shatter radius carried by the crack
-
-
-@dataclass
-class Preview:
-    """A hypothetical strike: Algorithm 1 at a surface point, nothing applied."""
-
-    body: int
-    point: np.ndarray  # (3,) m world
-    normal: np.ndarray  # (3,) - inward unit normal, world
-    speed: float  # m/s
-    analysis: object  # sph.cracks.ImpactAnalysis (reference frame of the body)
-    particle_ids: np.ndarray  # (M,) indices into world.particles of the analysed set N_p
-    particle_x: np.ndarray  # (M, 3) m world positions of the analysed particles
-    group: np.ndarray  # (M,) group of each analysed particle
-    cracks: list  # [CrackShape] world frame
-    r_inner: float  # m: shatter radius (0 unless a group fired)
-    threshold_speed: float  # m/s: speed at which the first group would fire (inf: none)
-    point_ref: np.ndarray = None  # (3,) m: the point in the body's reference frame
-    normal_ref: np.ndarray = None  # (3,) -: the inward normal in the body's reference frame
-
-    def refresh_world(self, world) -> None:
-        """Move the world-frame shapes with the body's current pose (the analysis itself is kept)."""
-        frames = body_frames(world)
-        ps = world.particles
-        self.point = to_world(frames, self.body, self.point_ref)
-        self.normal = dir_to_world(frames, self.body, self.normal_ref)
-        self.particle_x = to_world(frames, np.full(len(self.particle_ids), self.body), ps.centroid[self.particle_ids])
-        self.cracks = _crack_shapes(frames, self.body, self.analysis.cracks)
-
-
-def _crack_shapes(frames, body: int, cracks) -> list:
-    out = []
-    for c in cracks:
-        side = None if c.side is None else dir_to_world(frames, body, c.side)
-        out.append(CrackShape(point=to_world(frames, body, c.point), normal=dir_to_world(frames, body, c.normal),
-                              r_outer=float(c.r_outer), side=side, r_inner=float(c.r_inner)))
-    return out
-
-
-def analysed_ids(world, body: int) -> np.ndarray:
-    """Indices into world.particles of the set `sim.fracture_stage.analyse` hands to Algorithm 1 (the
-    analysis' `particles` index into it)."""
-    from sim import fracture_stage
-
-    if hasattr(fracture_stage, "analysed_particles"):
-        return fracture_stage.analysed_particles(world, body)
-    ps = world.particles
-    return np.flatnonzero(ps.alive & (ps.body == body))
-
-
 def preview_strike(world, hit: Hit, speed: float) -> Preview | None:
-    """Run the crack analysis only (sim.fracture_stage.analyse) for a strike at `hit` and `speed`;
-    None when the hit body is not breakable."""
-    from sim.fracture_stage import analyse
-    from sph.cracks import threshold_speed
+    """The crack analysis of a strike at `hit` and `speed` (anisofrac.strikes.preview); None when the
+    hit body is not breakable."""
+    from anisofrac.strikes import preview
 
     if not breakable(world, hit.body):
         return None
-    impact = strike_impact(world, hit, speed)
-    res = analyse(world, hit.body, impact)
-    ps = world.particles
-    ids = analysed_ids(world, hit.body)[np.asarray(res.particles, dtype=np.int64)]
-    frames = body_frames(world)
-    p_ref, n_ref = to_reference(frames, hit.body, impact["point"], impact["normal"])
-    try:
-        v_th = float(threshold_speed(res, None))
-    except Exception:  # noqa: BLE001 - a diagnostic only; never let it stop the viewer
-        v_th = math.inf
-    return Preview(body=hit.body, point=impact["point"], normal=impact["normal"], speed=float(speed), analysis=res,
-                   particle_ids=ids, particle_x=to_world(frames, np.full(len(ids), hit.body), ps.centroid[ids]),
-                   group=np.asarray(res.group, dtype=np.int64), cracks=_crack_shapes(frames, hit.body, res.cracks),
-                   r_inner=float(res.r_inner) if res.cracks else 0.0, threshold_speed=v_th, point_ref=p_ref,
-                   normal_ref=n_ref)
+    if not speed > 0.0:
+        raise ConfigError("viewer.strike_speed", speed, "> 0 m/s")
+    return preview(world, hit.body, hit.point, -np.asarray(hit.normal, dtype=np.float64) * speed, "viewer")
 
 
 def event_cracks(world, record: dict) -> list:
@@ -362,7 +244,7 @@ def event_cracks(world, record: dict) -> list:
     out = []
     for c in cr:
         near = live[int(np.argmin(np.linalg.norm(ps.centroid[live] - np.asarray(c.point), axis=1)))]
-        out += _crack_shapes(frames, int(ps.body[near]), [c])
+        out += crack_shapes(frames, int(ps.body[near]), [c])
     return out
 
 

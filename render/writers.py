@@ -42,6 +42,22 @@ def _tmp_name(path: Path, suffix: str) -> Path:
     return Path(tmp)
 
 
+def write_png(path: str | Path, img: np.ndarray) -> Path:
+    """One RGB frame (H, W, 3) uint8 as a PNG, written to a temporary name and renamed."""
+    from PIL import Image
+
+    final = Path(path)
+    img = _check_frame(img, None, "png frame")
+    tmp = _tmp_name(final, ".png")
+    try:
+        Image.fromarray(img, "RGB").save(tmp, format="PNG", compress_level=1)
+        os.replace(tmp, final)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return final
+
+
 class PngSequenceWriter:
     """`folder/frame_00000.png`, ...: each frame written to a temporary name, then renamed."""
 
@@ -59,18 +75,9 @@ class PngSequenceWriter:
         return self.folder
 
     def write(self, img: np.ndarray) -> Path:
-        from PIL import Image
-
         img = _check_frame(img, self._size, "png frame")
         self._size = img.shape[:2]
-        final = self.folder / self.pattern.format(self.index)
-        tmp = _tmp_name(final, ".png")
-        try:
-            Image.fromarray(img, "RGB").save(tmp, format="PNG", compress_level=1)
-            os.replace(tmp, final)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+        final = write_png(self.folder / self.pattern.format(self.index), img)
         self.index += 1
         self.count += 1
         self.paths.append(final)

@@ -43,34 +43,67 @@ def _surfaces(world):
     return cache[1]
 
 
+def fragment_mesh(world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fragment surfaces at the bodies' current poses: vertices (V, 3) m world, triangles (F, 3)
+    int, body of each vertex (V,)."""
+    mesh = _surfaces(world)
+    return world_positions(world, mesh.verts, mesh.vert_label), mesh.faces, mesh.vert_label
+
+
+def particle_positions(world, ids: np.ndarray) -> np.ndarray:
+    """(len(ids), 3) m: world positions of particles `ids` (elastic particles where they moved, a
+    body's particles at its pose, shattered ones where the debris effect carries them; NaN for a
+    particle that left the simulation)."""
+    ps = world.particles
+    if "elastic" in world.stages:
+        return world.elastic.positions()[ids]
+    if "rigid" not in world.stages:
+        return ps.centroid[ids]
+    x = np.full((len(ids), 3), np.nan)
+    on = ps.body[ids] >= 0
+    x[on] = world_positions(world, ps.centroid[ids[on]], ps.body[ids[on]])
+    if "debris" in world.stages and world.debris.count and (~on).any():
+        st = world.debris.state()
+        where = np.full(len(ps), -1, dtype=np.int64)
+        where[st["particle"]] = np.arange(len(st["particle"]))
+        slot = where[ids[~on]]
+        x[np.flatnonzero(~on)[slot >= 0]] = st["x"][slot[slot >= 0]]
+    return x
+
+
+def write_particles_vtu(world, path: Path) -> Path:
+    """The live particles as a VTU point cloud (meshio; body, kind, mass, volume per point), written
+    to a temporary name and renamed."""
+    import meshio
+
+    ps = world.particles
+    ids = np.flatnonzero(ps.alive)
+    x = particle_positions(world, ids)
+    keep = np.all(np.isfinite(x), axis=1)
+    ids, x = ids[keep], x[keep]
+    m = meshio.Mesh(x, [("vertex", np.arange(len(ids)).reshape(-1, 1))], point_data=dict(
+        body=ps.body[ids].astype(np.int32), kind=ps.kind[ids].astype(np.int32),
+        mass=ps.mass[ids], volume=ps.volume[ids]))
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".vtu", dir=path.parent)
+    os.close(fd)
+    meshio.write(tmp, m)
+    os.replace(tmp, path)
+    return path
+
+
 def write_frame_exports(world, out: Path, frame: int, meshes: str, vtu: bool) -> None:
     out = Path(out)
     if meshes != "none" and "rigid" in world.stages:
         from geometry.export import write_mesh
 
-        mesh = _surfaces(world)
-        verts = world_positions(world, mesh.verts, mesh.vert_label)
+        verts, faces, _ = fragment_mesh(world)
         (out / "meshes").mkdir(exist_ok=True)
-        write_mesh(out / "meshes" / f"frame_{frame:05d}.{meshes}", verts, mesh.faces)
+        write_mesh(out / "meshes" / f"frame_{frame:05d}.{meshes}", verts, faces)
     if vtu:
-        import meshio
-
-        ps = world.particles
-        ids = np.flatnonzero(ps.alive)
-        if "elastic" in world.stages:
-            x = world.elastic.positions()[ids]
-        else:
-            x = world_positions(world, ps.centroid[ids], ps.body[ids])
         folder = out / "vtu"
         folder.mkdir(exist_ok=True)
-        m = meshio.Mesh(x, [("vertex", np.arange(len(ids)).reshape(-1, 1))], point_data=dict(
-            body=ps.body[ids].astype(np.int32), kind=ps.kind[ids].astype(np.int32),
-            mass=ps.mass[ids], volume=ps.volume[ids]))
-        name = folder / f"particles_{frame:05d}.vtu"
-        fd, tmp = tempfile.mkstemp(prefix=".particles.", suffix=".vtu", dir=folder)
-        os.close(fd)
-        meshio.write(tmp, m)
-        os.replace(tmp, name)
+        write_particles_vtu(world, folder / f"particles_{frame:05d}.vtu")
         steps = sorted(folder.glob("particles_*.vtu"))
         dt = world.dt_frame
         entries = "\n".join(

@@ -109,15 +109,18 @@ def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: boo
     }
 
 
-def run(cfg: SceneConfig, opts: RunOptions) -> dict:
-    """Run a scene headless; returns the stats written to stats.json."""
+def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
+    """Run a scene headless; returns the stats written to stats.json. With `world` (a built World of
+    `cfg`, e.g. the Python API's Simulation.world) that world runs on from where it is and stays
+    allocated; without, a World is built and released at the end."""
     from tqdm import tqdm
 
     from sim.world import World
 
     out = prepare_output_dir(opts.out, opts.overwrite)
     frames = opts.frames or cfg.scene.frames
-    world = World(cfg)
+    own = world is None
+    world = World(cfg) if own else world
     renderer = None
     if opts.renderer != "none":
         from render.session import HeadlessSession
@@ -125,7 +128,8 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
         try:
             renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors)
         except BaseException:
-            world.release()
+            if own:
+                world.release()
             raise
         print(renderer.description, file=sys.stderr)
     t0 = time.perf_counter()
@@ -159,7 +163,8 @@ def run(cfg: SceneConfig, opts: RunOptions) -> dict:
         stats = collect_stats(world, wall, done, interrupted)
         stats["stopped"] = stopped
         atomic_write_json(out / "stats.json", stats)
-        world.release()
+        if own:
+            world.release()
     if interrupted:
         raise KeyboardInterrupt
     return stats

@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import anisofrac as af
 from render.camera import box_corners
 from render.session import HeadlessSession
-from scenes.loader import load_scene, scene_names
+from scenes.loader import scene_names
 from sim.world import World
 
 FAST = [n for n in scene_names() if n not in ("pots", "pet")]
@@ -24,10 +25,11 @@ def _bodies_in_view(session: HeadlessSession) -> bool:
     return bool(np.all((px >= 0.0) & (px <= [W, H])))
 
 
-def run_scene(name: str) -> World:
-    """Run the scene's test frames, following it with the headless camera (checked at both ends)."""
-    cfg = load_scene(name)
-    world = World(cfg)
+def run_scene(name: str) -> af.Simulation:
+    """Run the scene's test frames through the Python API, following it with the headless camera
+    (checked at both ends)."""
+    sim = af.load(name)
+    cfg, world = sim.config, sim.world
     session = HeadlessSession(world, "none", W, H) if "rigid" in world.stages else None
     frames = cfg.scene.test_frames or cfg.scene.frames
     try:
@@ -35,11 +37,26 @@ def run_scene(name: str) -> World:
             if session is not None:
                 in_view = _bodies_in_view(session)
                 assert in_view or f not in (0, frames - 1) or cfg.camera.mode == "fixed", (name, f)
-            world.step_frame()
+            sim.step()
     finally:
         if session is not None:
             session.close()
-    return world
+    return sim
+
+
+def check_readouts(sim: af.Simulation) -> None:
+    """What the API reads agrees with the World: particle masses add up to the live mass, every link
+    joins two live particles once, bodies' masses are the rigid world's, the stats hold Table 1."""
+    world = sim.world
+    parts = sim.particles()
+    assert parts.mass.sum() == pytest.approx(world.mass_balance()["alive_kg"], rel=1e-12)
+    assert np.all(np.isfinite(parts.x[parts.body >= 0]))
+    links = sim.links()
+    assert np.all(links[:, 0] < links[:, 1]) and len(np.unique(links, axis=0)) == len(links)
+    assert np.all(world.particles.alive[links])
+    assert sim.stats()["table1"] == world.counts()
+    for b in sim.bodies():
+        assert b.mass == world.rigid.body_mass(b.id) and b.particles >= 1
 
 
 def check_world(world: World) -> None:
@@ -71,20 +88,21 @@ def check_world(world: World) -> None:
 
 @pytest.mark.parametrize("name", FAST)
 def test_scene_runs_its_test_frames(name):
-    world = run_scene(name)
+    sim = run_scene(name)
     try:
-        check_world(world)
+        check_world(sim.world)
+        check_readouts(sim)
     finally:
-        world.release()
+        sim.close()
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["pots", "pet"])
 def test_large_scene_runs_its_test_frames(name):
-    world = run_scene(name)
+    sim = run_scene(name)
     try:
-        check_world(world)
+        check_world(sim.world)
         if name == "pots":
-            assert 75_000 <= world.counts()["physical_particles"] <= 90_000
+            assert 75_000 <= sim.world.counts()["physical_particles"] <= 90_000
     finally:
-        world.release()
+        sim.close()

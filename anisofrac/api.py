@@ -1,0 +1,76 @@
+"""Module-level functions of the public API: start Taichi, list and load scenes (docs/api.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from sim.errors import ConfigError
+
+
+def init(arch: str = "cpu", precision: str = "f32", threads: int = 1):
+    """Start Taichi: arch 'cpu', 'cuda' or 'auto'; precision 'f32' or 'f64'; CPU threads (1: runs
+    are bitwise reproducible, 0: all cores). Once per process: calling again with the same settings
+    does nothing, other settings raise BackendError. Returns the runtime (arch, precision, device)."""
+    from sim.runtime import init_taichi
+
+    return init_taichi(arch=arch, precision=precision, threads=threads)
+
+
+def ensure_runtime():
+    """The running Taichi runtime, started with the defaults (cpu, f32, 1 thread) if none runs."""
+    from sim import runtime as rt
+
+    return rt._runtime if rt._runtime is not None else init()
+
+
+def scene_names() -> list[str]:
+    """The scenes shipped in scenes/ (load them by name)."""
+    from scenes.loader import scene_names as names
+
+    return names()
+
+
+def _toml_value(value, key: str) -> str:
+    """A Python value as a TOML literal (what `--set key=value` takes)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v, key) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(v, key)}" for k, v in value.items()) + "}"
+    if hasattr(value, "tolist"):  # numpy scalars and arrays
+        return _toml_value(value.tolist(), key)
+    raise ConfigError(f"overrides.{key}", value, "a number, string, bool, list or table")
+
+
+def overrides_as_text(overrides) -> list[str]:
+    """`{"materials.glass.cracks": 8}` or `["materials.glass.cracks=8"]` -> the `--set` strings."""
+    if overrides is None:
+        return []
+    if isinstance(overrides, dict):
+        return [f"{k}={_toml_value(v, k)}" for k, v in overrides.items()]
+    if isinstance(overrides, (list, tuple)) and all(isinstance(o, str) for o in overrides):
+        return list(overrides)
+    raise ConfigError("overrides", overrides, "a dict of key paths to values, or a list of 'key.path=value'")
+
+
+def load_config(scene: str | Path, overrides=None):
+    """The validated scene (sim.config.SceneConfig) by name (`scene_names()`) or .toml path, with
+    overrides by the same key paths as `--set` (`objects.0.velocity`, `materials.glass.cracks`)."""
+    from scenes.loader import load_scene
+
+    return load_scene(str(scene), overrides_as_text(overrides))
+
+
+def load(scene: str | Path, overrides=None, seed: int | None = None):
+    """Build a scene and return its Simulation (anisofrac.simulation.Simulation). Starts Taichi with
+    the defaults unless `init` was called. Bad names, paths and values raise ConfigError naming the
+    key path, the value and what is allowed, exactly as the command line reports them."""
+    from anisofrac.simulation import Simulation
+
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+        raise ConfigError("load.seed", seed, "an integer >= 0")
+    return Simulation(load_config(scene, overrides), seed=seed)
