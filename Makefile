@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-slow lint bench system-deps clean
+.PHONY: setup demo test test-slow lint bench notebooks system-deps clean
 
 $(STAMP): requirements.txt
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,9 @@ test-slow: setup
 
 bench: setup
 	$(PY) main.py bench
+
+notebooks: setup
+	$(PY) tools/notebooks.py run
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache
