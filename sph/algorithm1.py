@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.cutting import Crack
-from sim.errors import ConfigError
 from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
 from sph.eigen import sym_eig3_np
 from sph.gradient import neighbour_pairs, sph_gradient

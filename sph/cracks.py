@@ -104,8 +104,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.cutting import Crack
-from sim.errors import ConfigError
 from sph import algorithm1 as alg
 from sph.algorithm1 import tet_edge
 from sph.contact import HertzImpact, effective_isotropic, hertz_impact, hertz_threshold_speed, speed_for_force

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from core.errors import ConfigError
 from geometry.cutting import Crack, in_region, signed_distance
-from sim.errors import ConfigError
 
 
 @dataclass(frozen=True)

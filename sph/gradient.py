@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 from sph.kernel import GRAD_NORM
 
 CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
