@@ -14,14 +14,14 @@ import argparse
 import json
 import sys
 
-from sim.errors import SandboxError
+from core.errors import SandboxError
 
 DEFAULT_OBJECT = "pot"
 DEFAULT_SCENE = "pot"
 
 
 def _init(args: argparse.Namespace) -> None:
-    from sim.runtime import init_taichi
+    from core.runtime import init_taichi
 
     info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
     print(f"taichi: arch={info.arch} precision={info.precision} device={info.device}", file=sys.stderr)
@@ -34,7 +34,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from sim.run import RunOptions
 
     if args.frames is not None and args.frames < 1:
-        from sim.errors import ConfigError
+        from core.errors import ConfigError
 
         raise ConfigError("--frames", args.frames, "an integer >= 1")
     overrides = list(args.set or [])
@@ -71,7 +71,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
     cfg = af.load_config(args.scene, list(args.set or []))
     _init(args)
-    from render.viewer import run_viewer
+    from viewer.app import run_viewer
 
     return run_viewer(cfg, args)
 
@@ -85,8 +85,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 def _cmd_figures(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from render.figures import FIGURES, make_sheet
-    from sim.errors import ConfigError
+    from core.errors import ConfigError
+    from sim.figures import FIGURES, make_sheet
 
     numbers = [f.number for f in FIGURES]
     only = None

@@ -13,7 +13,7 @@ Importing this package starts nothing: Taichi starts at `init()` or at the first
 from anisofrac.api import init, load, load_config, scene_names
 from anisofrac.simulation import Body, Particles, Simulation
 from anisofrac.strikes import CrackShape, Preview
-from sim.errors import BackendError, ConfigError, MaterialError, MeshError, SandboxError
+from core.errors import BackendError, ConfigError, MaterialError, MeshError, SandboxError
 
 __all__ = [
     "init", "load", "load_config", "scene_names",

@@ -5,23 +5,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 
 def init(arch: str = "cpu", precision: str = "f32", threads: int = 1):
     """Start Taichi: arch 'cpu', 'cuda' or 'auto'; precision 'f32' or 'f64'; CPU threads (1: runs
     are bitwise reproducible, 0: all cores). Once per process: calling again with the same settings
     does nothing, other settings raise BackendError. Returns the runtime (arch, precision, device)."""
-    from sim.runtime import init_taichi
+    from core.runtime import init_taichi
 
     return init_taichi(arch=arch, precision=precision, threads=threads)
-
-
-def ensure_runtime():
-    """The running Taichi runtime, started with the defaults (cpu, f32, 1 thread) if none runs."""
-    from sim import runtime as rt
-
-    return rt._runtime if rt._runtime is not None else init()
 
 
 def scene_names() -> list[str]:
@@ -58,7 +51,7 @@ def overrides_as_text(overrides) -> list[str]:
 
 
 def load_config(scene: str | Path, overrides=None):
-    """The validated scene (sim.config.SceneConfig) by name (`scene_names()`) or .toml path, with
+    """The validated scene (scenes.config.SceneConfig) by name (`scene_names()`) or .toml path, with
     overrides by the same key paths as `--set` (`objects.0.velocity`, `materials.glass.cracks`)."""
     from scenes.loader import load_scene
 

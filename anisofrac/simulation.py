@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from anisofrac import strikes
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 RENDER_DEFAULT = (640, 480)  # px: default image size of Simulation.render
 
@@ -75,11 +75,11 @@ class Simulation:
     `with anisofrac.load("pot") as sim: ...` frees its Taichi fields at the end (or call `close()`)."""
 
     def __init__(self, config, seed: int | None = None) -> None:
-        from anisofrac.api import ensure_runtime
+        from core.runtime import ensure_runtime
         from sim.world import World
 
         ensure_runtime()
-        self.config = config  # sim.config.SceneConfig: the validated scene (read it, do not change it)
+        self.config = config  # scenes.config.SceneConfig: the validated scene (read it, do not change it)
         self.world = World(config, seed)
         self._views: dict = {}
 
@@ -172,7 +172,7 @@ class Simulation:
     def surface_point(self, body: int | str, direction) -> np.ndarray:
         """m: the point of `body`'s surface first met by a ray from far away along `direction` (world)
         through its centre of mass: where to aim a strike that moves along `direction`."""
-        from render.viewer_pick import ray_cast
+        from render.pick import ray_cast
 
         b = self._body(body, "surface_point")
         d = np.asarray(direction, dtype=np.float64).reshape(-1)

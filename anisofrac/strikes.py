@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.errors import ConfigError, SandboxError
+from core.errors import ConfigError, SandboxError
 
 
 # ----------------------------------------------------------------------------- frames
@@ -138,8 +138,15 @@ class Preview:
 
     @property
     def principal_stress(self) -> np.ndarray:
-        """(N, 3) Pa: principal values of each group's mean tensile stress, largest first."""
+        """(N, 3) Pa: principal values of each group's MEAN tensile stress, largest first (its
+        eigenvector is the crack normal; the Rankine test uses `peak_tension`)."""
         return np.asarray(self.analysis.principal_stress)
+
+    @property
+    def peak_tension(self) -> np.ndarray:
+        """(N,) Pa: the largest tensile principal stress of any member of each group: a group fires
+        when it exceeds the tensile strength (Rankine, a point criterion)."""
+        return np.asarray(self.analysis.tension_per_newton) * self.analysis.hertz.force
 
     def refresh_world(self, world) -> None:
         """Move the world-frame shapes with the body's current pose (the analysis itself is kept)."""

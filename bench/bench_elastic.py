@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from sim.runtime import init_taichi  # noqa: E402
+from core.runtime import init_taichi  # noqa: E402
 
 L, H, E, NU, RHO, G = 1.0, 0.1, 100e6, 0.3, 1000.0, 9.81
 NFIX, HF = 3, 2.2

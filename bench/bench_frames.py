@@ -74,7 +74,7 @@ def main(argv=None) -> int:
     ap.add_argument("--height", type=int, default=720)
     ap.add_argument("--threads", type=int, default=1, help="CPU threads (the run's default is 1)")
     args = ap.parse_args(argv)
-    from sim.runtime import init_taichi, runtime
+    from core.runtime import init_taichi, runtime
 
     init_taichi("cpu", threads=args.threads)
     names = args.scenes.split(",") if args.scenes else (QUICK_SCENES if args.quick else SCENES)

@@ -100,7 +100,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     os.environ.setdefault("TI_LOG_LEVEL", "warn")
-    from sim.runtime import init_taichi
+    from core.runtime import init_taichi
 
     info = init_taichi(args.arch, args.precision, args.threads)
     from render.ggui import vulkan_status

@@ -149,7 +149,7 @@ def main() -> None:
     ap.add_argument("--precision", default="f32", choices=["f32", "f64"])
     ap.add_argument("--threads", type=int, default=0, help="CPU threads (0 = Taichi's default)")
     args = ap.parse_args()
-    from sim.runtime import init_taichi
+    from core.runtime import init_taichi
 
     info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
     print(

@@ -21,7 +21,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from sim.runtime import init_taichi  # noqa: E402
+from core.runtime import init_taichi  # noqa: E402
 
 
 def block(k: int, d: float = 0.01, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

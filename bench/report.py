@@ -4,7 +4,7 @@
     .venv/bin/python -m bench.report --quick --out /tmp/report   # reduced study (~3 min)
 
 Runs every sweep (`bench/study_*.py`) in its own process, because Taichi's precision and arch are
-fixed per process (sim.runtime.init_taichi) and each scene is best measured in a fresh runtime:
+fixed per process (core.runtime.init_taichi) and each scene is best measured in a fresh runtime:
   1 fracture surfaces   (study_fracture)   resolution x {basic, adaptive subdivision, uniformly fine}
   2 SPH gradient        (study_gradient)   correction order x kernel x neighbour count
   3 cantilever beam     (study_beam)       resolution x gradient order; SPlisHSPlasH where importable
@@ -97,7 +97,7 @@ def _run_sweep(module: str, extra: list[str], quick: bool, tmp: Path, tag: str) 
 def _scene_runs(quick: bool, arch: str) -> tuple[list[list[str]], str]:
     """Argument lists of the scene processes (CPU always; CUDA too when a device is there)."""
     from bench.study_scenes import QUICK_SCENES, SCENES
-    from sim.runtime import cuda_available
+    from core.runtime import cuda_available
 
     names = list(QUICK_SCENES) if quick else [s[0] for s in SCENES]
     archs = ["cpu"]

@@ -164,8 +164,8 @@ def plot_pareto(path: Path, panels: list[dict], title: str | None = None) -> str
 
 
 def machine() -> dict:
-    """CPU model and core count of this machine (the Taichi device comes from sim.runtime)."""
-    from sim.runtime import _cpu_name
+    """CPU model and core count of this machine (the Taichi device comes from core.runtime)."""
+    from core.runtime import _cpu_name
 
     return dict(cpu=_cpu_name(), cores=os.cpu_count())
 
@@ -182,7 +182,7 @@ def study_main(run, argv=None, taichi: bool = True, default_precision: str = "f3
     args = ap.parse_args(argv)
     info = None
     if taichi:
-        from sim.runtime import init_taichi
+        from core.runtime import init_taichi
 
         info = init_taichi(args.arch, args.precision, args.threads)
     t0 = clock()

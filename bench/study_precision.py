@@ -1,6 +1,6 @@
 """Sweep: floating-point precision (f32, f64) and substep count against energy drift and time.
 
-Taichi's precision is fixed per process (sim.runtime.init_taichi), so `bench/report.py` runs this
+Taichi's precision is fixed per process (core.runtime.init_taichi), so `bench/report.py` runs this
 module once per precision, each in its own process, and merges the two results.
 
 Two known answers, both "energy is conserved":

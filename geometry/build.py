@@ -11,13 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.boundary import DEFAULT_GROUP_SIZE, BoundaryParticles, build_boundary_particles
 from geometry.mesh_io import SURFACE_EXTENSIONS, TET_EXTENSIONS, MeshSolid, load_surface_mesh, load_tet_mesh
 from geometry.particles import ParticleSet, build_particles
 from geometry.shapes import SHAPES, lathe
 from geometry.tetmesh import TetMesh, quality_report
 from geometry.tetrahedralize import tetrahedralize
-from sim.errors import ConfigError
 
 # Named objects for `main.py check NAME` and scenes: the paper's pot (Fig. 7, about 6k tets).
 NAMED_SHAPES = {

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.particles import ParticleSet
-from sim.errors import ConfigError
 
 Bodies = Iterable[int] | int | None  # body ids an operation touches (None = every body)
 

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.errors import ConfigError
+from core.output import atomic_write_bytes
 from geometry.surface import SurfaceMesh
-from sim.errors import ConfigError
-from sim.output import atomic_write_bytes
 
 FORMATS = ("obj", "ply")
 

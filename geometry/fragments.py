@@ -18,10 +18,10 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from core.errors import ConfigError
 from geometry.cutting import Bodies, Crack, body_mask, remove_crossed_links, shatter_particles
 from geometry.particles import ParticleSet
 from geometry.subdivision import SNAP_REL, SubdivisionReport, subdivide
-from sim.errors import ConfigError
 
 MODES = ("basic", "subdivision")
 

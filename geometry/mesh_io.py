@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.errors import ConfigError, MeshError
+from geometry.surface_checks import check_surface_overlap
 from geometry.tetmesh import TetMesh, validate_tets
-from sim.errors import ConfigError, MeshError
-from sim.guards import check_surface_overlap
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254, "ft": 0.3048}
 SURFACE_EXTENSIONS = (".obj", ".stl", ".ply", ".glb", ".gltf", ".off")

@@ -40,11 +40,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.errors import ConfigError, MeshError
 from geometry.cutting import Bodies, Crack, body_mask, lex_less, section_meets_region, signed_distance
 from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED, ParticleSet
 from geometry.subdivision_tables import CASE_NAMES, PARITY_SWAP, TABLES, sign_case
 from geometry.tetmesh import TET_FACES, signed_volumes
-from sim.errors import ConfigError, MeshError
 
 SNAP_REL = 0.01  # -: snap distance as a fraction of the largest extent S of the tets at a vertex
 

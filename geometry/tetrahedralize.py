@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
+from core.errors import ConfigError, MeshError
 from geometry.tetmesh import TetMesh, face_adjacency, quality_report, signed_volumes
-from sim.errors import ConfigError, MeshError
 
 JITTER = 0.08  # interior sample jitter, fraction of h
 SURFACE_GAP = 0.45  # interior samples nearer than this x h to the surface are dropped

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 MIN_PITCH_MARGIN_DEG = 1.0  # deg: orbit keeps the view direction this far from the up axis
 

@@ -30,10 +30,10 @@ import tempfile
 import numpy as np
 import taichi as ti
 
+from core.errors import BackendError
 from render.camera import Camera
 from render.raster import check_size
 from render.scene_data import RenderScene
-from sim.errors import BackendError
 
 LIGHT_DISTANCE_FAR_PLANES = 1e4  # -: point light distance from the target, in units of max(far, 1 m)
 PROBE_TIMEOUT_S = 120.0  # s: limit for the Vulkan probe subprocess

@@ -34,9 +34,9 @@ Output: an (H, W, 3) uint8 array, row 0 at the top, colours rounded from [0, 1].
 import numpy as np
 import taichi as ti
 
+from core.errors import ConfigError
 from render.camera import Camera, box_corners
 from render.scene_data import RenderScene
-from sim.errors import ConfigError
 
 DEPTH_LEVELS = 2**31 - 1  # z_ndc in [0, 1] is quantised to this many levels in the upper 32 bits of a key
 ID_MASK = 2**32 - 1  # lower 32 bits of a key: 1 + primitive id (0 = empty pixel)

@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import taichi as ti
 
-from rigid.kernels import q_to_mat
-from sim.errors import ConfigError
-from sim.runtime import numpy_float
+from core.errors import ConfigError
+from core.runtime import numpy_float
+from rigid.kernel_math import q_to_mat
 
 MIN_CAPACITY = 64  # slots: smallest tree allocated for any kind
 BOUNDS_BLOCK = 1024  # corners reduced per parallel task in body_bounds

@@ -9,8 +9,8 @@ shadows, needs no Vulkan and is faster than GGUI on a CPU (docs/decisions.md, "H
 
 from __future__ import annotations
 
+from core.errors import ConfigError
 from render.raster import RasterRenderer, check_size
-from sim.errors import ConfigError
 
 RENDERER_KINDS = ("ggui", "raster", "auto", "none")
 

@@ -13,15 +13,15 @@ from pathlib import Path
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.surface import on_surface
 from render.camera import Camera
 from render.framing import FollowCamera
+from render.looks import CRACK_GREY, material_look
 from render.primitives import ground_quad
 from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
 from render.select import make_renderer
 from render.writers import PngSequenceWriter, make_writer
-from sim.errors import ConfigError
-from sim.looks import CRACK_GREY, material_look
 
 FLOOR_COLOR = (0.55, 0.55, 0.58)
 
@@ -133,7 +133,7 @@ SURFACE_HEADROOM = 3  # -: triangle capacity reserved, in multiples of the objec
 class SceneView:
     """The renderable state of a World, kept in step with it (shared by headless runs and the viewer).
 
-    Colours: `colors="material"` draws each face in its material's look (sim/looks.py) and the faces
+    Colours: `colors="material"` draws each face in its material's look (render/looks.py) and the faces
     that cracks created in the look's crack shade; `colors="fragments"` gives every body its own
     palette colour (crack faces a shade of it). A face is a crack face when it does not lie on the
     objects' surface at rest (geometry.surface.on_surface); the answer is cached per tet face."""

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 VIDEO_FORMATS = ("mp4", "gif", "none")
 FRAME_PATTERN = "frame_{:05d}.png"

@@ -28,13 +28,13 @@ import itertools
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.boundary import DEFAULT_GROUP_SIZE, build_boundary_particles
 from geometry.particles import ParticleSet
 from geometry.tetmesh import TetMesh, signed_volumes
 from rigid.mass import MassProperties, mass_properties
 from rigid.quat import IDENTITY, quat_to_matrix
 from rigid.world import RigidWorld
-from sim.errors import ConfigError
 
 
 # --------------------------------------------------------------------------- procedural meshes

@@ -16,8 +16,8 @@ carried by the particle set (alive, body -1); the store holds only positions and
 import numpy as np
 import taichi as ti
 
-from sim.errors import ConfigError
-from sim.runtime import numpy_float
+from core.errors import ConfigError
+from core.runtime import numpy_float
 
 MIN_CAPACITY = 256  # debris slots allocated at least
 PLANE, BOX = 0, 1  # collider kinds

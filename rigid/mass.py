@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.errors import MeshError
 from geometry.tetmesh import signed_volumes
 from rigid.quat import quat_from_matrix
-from sim.errors import MeshError
 
 INERTIA_FLOOR_RATIO = 0.1  # -: principal moments >= ratio * (2/5) m r_eq^2 (ball of equal volume)
 

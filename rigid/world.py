@@ -2,7 +2,7 @@
 
 A lightweight impulse-based integrator in Taichi, standing in for the commercial engine of the
 paper (Sect. 6.1 used Newton Game Dynamics); collision runs on boundary particles only (Sect. 5.3).
-The stages and their equations are described in `rigid.kernels`; conventions, parameters and the
+The stages and their equations are described in rigid/step.py; conventions, parameters and the
 operating envelope in docs/notes_rigid.md.
 
 Body frame: a reference point X (tet rest vertex, metres) maps to world as
@@ -19,156 +19,19 @@ happen between steps only.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from rigid import kernels as K
+from core.errors import CapacityError, ConfigError
+from core.runtime import numpy_float
+from rigid import transfers
+from rigid.host_sync import HostSync
 from rigid.mass import MassProperties
 from rigid.quat import IDENTITY, quat_to_matrix
+from rigid.records import BodyState, ContactEvents, RigidConfig
+from rigid.step import rigid_step
 from rigid.store import acquire_store, recycle_store
-from sim.errors import CapacityError, ConfigError
-from sim.runtime import numpy_float
-
-
-@dataclass
-class RigidConfig:
-    """Solver parameters (SI units). Defaults suit objects of 1 cm to 1 m at dt = 1/240 s."""
-
-    gravity: tuple = (0.0, -9.81, 0.0)  # m/s^2
-    substeps: int = 8  # -: solver substeps per step (contacts are found once per step)
-    velocity_iterations: int = 4  # -: sequential-impulse passes per substep (even: symmetric sweeps)
-    restitution_iterations: int = 2  # -: restitution passes per step
-    position_iterations: int = 4  # -: split-impulse passes per step (even: symmetric sweeps)
-    restitution_threshold_mps: float = 0.5  # m/s: closing speeds below this never bounce
-    linear_slop_m: float = 2.0e-5  # m: penetration left uncorrected (keeps resting contacts warm)
-    position_correction_rate: float = 0.2  # -: fraction of the penetration removed per step
-    max_correction_speed_mps: float = 1.0  # m/s: cap of the pseudo velocity of the position correction
-    speculative_margin_m: float = 2.0e-3  # m: contacts are created this far before touching
-    linear_damping_per_s: float = 0.0  # 1/s: v <- v / (1 + c dt)
-    angular_damping_per_s: float = 0.0  # 1/s: w <- w / (1 + c dt)
-    max_speed_mps: float = 200.0  # m/s: linear speed clamp
-    max_rotation_per_step_rad: float = 0.25 * math.pi  # rad: |w| dt clamp
-    mass_ratio_cap: float = 4.0  # -: heavy-on-light contacts are solved as if at most this ratio (0 = off)
-    max_support_levels: int = 64  # -: stack depth up to which support levels are computed
-    warm_start: bool = True  # reuse last step's impulses of contacts matched by (sphere, sphere) key
-    warm_start_factor: float = 1.0  # -: fraction of the previous impulse reused
-    sleep_enabled: bool = True
-    sleep_linear_speed_mps: float = 0.05  # m/s: below this (and the angular one) a body may sleep
-    sleep_angular_speed_radps: float = 0.1  # rad/s
-    time_to_sleep_s: float = 0.5  # s: an island sleeps after every body was slow this long
-
-    _RANGES = {
-        "substeps": (1, 64),
-        "velocity_iterations": (1, 1000),
-        "restitution_iterations": (0, 100),
-        "position_iterations": (0, 1000),
-        "restitution_threshold_mps": (0.0, 1e3),
-        "linear_slop_m": (0.0, 1.0),
-        "position_correction_rate": (0.0, 1.0),
-        "max_correction_speed_mps": (0.0, 1e3),
-        "speculative_margin_m": (0.0, 10.0),
-        "linear_damping_per_s": (0.0, 1e6),
-        "angular_damping_per_s": (0.0, 1e6),
-        "max_speed_mps": (1e-6, 1e6),
-        "max_rotation_per_step_rad": (1e-6, math.pi),
-        "warm_start_factor": (0.0, 1.0),
-        "max_support_levels": (0, 100000),
-        "mass_ratio_cap": (0.0, 1e12),
-        "sleep_linear_speed_mps": (0.0, 1e3),
-        "sleep_angular_speed_radps": (0.0, 1e3),
-        "time_to_sleep_s": (0.0, 1e6),
-    }
-
-    def validate(self) -> None:
-        """Raise ConfigError naming the key, its value and the allowed range."""
-        g = tuple(self.gravity)
-        if len(g) != 3 or not all(math.isfinite(float(c)) for c in g):
-            raise ConfigError("rigid.gravity", self.gravity, "three finite numbers (m/s^2)")
-        for f in fields(self):
-            if f.name in self._RANGES:
-                lo, hi = self._RANGES[f.name]
-                val = getattr(self, f.name)
-                if not (isinstance(val, (int, float)) and math.isfinite(val) and lo <= val <= hi):
-                    raise ConfigError(f"rigid.{f.name}", val, f"[{lo}, {hi}]")
-
-
-@dataclass
-class BodyState:
-    """Pose and velocity of all bodies (index = body id), numpy copies."""
-
-    x: np.ndarray  # (NB, 3) m: COM world position
-    q: np.ndarray  # (NB, 4) -: w-x-y-z
-    v: np.ndarray  # (NB, 3) m/s
-    w: np.ndarray  # (NB, 3) rad/s, world frame
-    asleep: np.ndarray  # (NB,) bool
-    alive: np.ndarray  # (NB,) bool
-    sleep_time: np.ndarray | None = None  # (NB,) s: time spent below the sleep speeds
-
-
-@dataclass
-class ContactEvents:
-    """Contacts of the last step, one row per (sphere, sphere) or (sphere, collider) contact.
-
-    body_b is -1 for a static collider (then `collider` names it; otherwise collider = -1). The
-    normal points from B towards A; `normal_impulse` (N s) is the total impulse the step applied
-    (velocity and restitution passes, not the position correction); `normal_speed` (m/s) is the
-    relative normal velocity of A with respect to B before the solve (negative = closing).
-    """
-
-    body_a: np.ndarray  # (C,) int
-    body_b: np.ndarray  # (C,) int
-    sphere_a: np.ndarray  # (C,) int
-    sphere_b: np.ndarray  # (C,) int: -1 for a collider
-    collider: np.ndarray  # (C,) int: -1 for a sphere-sphere contact
-    point: np.ndarray  # (C, 3) m
-    normal: np.ndarray  # (C, 3) -
-    normal_impulse: np.ndarray  # (C,) N s
-    normal_speed: np.ndarray  # (C,) m/s
-    separation: np.ndarray  # (C,) m: gap at the step start (negative = penetration)
-
-    def __len__(self) -> int:
-        return len(self.body_a)
-
-    def touching(self) -> ContactEvents:
-        """Only the contacts that carried impulse."""
-        return self._select(self.normal_impulse > 0.0)
-
-    def _select(self, mask: np.ndarray) -> ContactEvents:
-        return ContactEvents(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
-
-    def by_body_pair(self) -> dict:
-        """Impacts summed per body pair: arrays body_a, body_b, impulse (N s, summed), speed (m/s, most
-        negative pre-solve normal speed), point (impulse-weighted mean), normal (impulse-weighted,
-        normalised). Only contacts with impulse > 0 count."""
-        ev = self.touching()
-        if len(ev) == 0:
-            z = np.zeros(0)
-            return dict(
-                body_a=z.astype(int),
-                body_b=z.astype(int),
-                impulse=z,
-                speed=z,
-                point=np.zeros((0, 3)),
-                normal=np.zeros((0, 3)),
-            )
-        pairs = np.stack([ev.body_a, ev.body_b], 1)
-        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-        inv = inv.ravel()
-        m = len(uniq)
-        imp = np.bincount(inv, weights=ev.normal_impulse, minlength=m)
-        speed = np.full(m, np.inf)
-        np.minimum.at(speed, inv, ev.normal_speed)
-        pt = np.stack(
-            [np.bincount(inv, weights=ev.normal_impulse * ev.point[:, k], minlength=m) for k in range(3)], 1
-        )
-        nr = np.stack(
-            [np.bincount(inv, weights=ev.normal_impulse * ev.normal[:, k], minlength=m) for k in range(3)], 1
-        )
-        nr /= np.maximum(np.linalg.norm(nr, axis=1, keepdims=True), 1e-300)
-        return dict(
-            body_a=uniq[:, 0], body_b=uniq[:, 1], impulse=imp, speed=speed, point=pt / imp[:, None], normal=nr
-        )
 
 
 @dataclass
@@ -188,7 +51,7 @@ class _HostBodies:
     sphere_count: list = field(default_factory=list)  # int: spheres of the body when added
 
 
-class RigidWorld:
+class RigidWorld(HostSync):
     """Rigid bodies on boundary spheres with static colliders; see the module docstring.
 
     Capacities are initial sizes: adding beyond them grows the store between steps (new fields,
@@ -324,153 +187,6 @@ class RigidWorld:
         if bodies > s.cap_bodies or spheres > s.cap_spheres or colliders > s.cap_colliders:
             self._grow(bodies=bodies, spheres=spheres, colliders=colliders)
 
-    # ------------------------------------------------------------------ transfers
-    def _download_bodies(self, n: int) -> BodyState:
-        fdt = numpy_float()
-        m = max(n, 1)
-        x = np.zeros((m, 3), fdt)
-        q = np.zeros((m, 4), fdt)
-        v = np.zeros((m, 3), fdt)
-        w = np.zeros((m, 3), fdt)
-        asleep = np.zeros(m, np.int32)
-        st = np.zeros(m, fdt)
-        alive = np.zeros(m, np.int32)
-        if n > 0:
-            K.k_download_bodies(self._s, n, x, q, v, w, asleep, st, alive)
-        st_ = BodyState(
-            x=x[:n].astype(np.float64),
-            q=q[:n].astype(np.float64),
-            v=v[:n].astype(np.float64),
-            w=w[:n].astype(np.float64),
-            asleep=asleep[:n].astype(bool),
-            alive=alive[:n].astype(bool),
-            sleep_time=st[:n].astype(np.float64),
-        )
-        return st_
-
-    def _upload_bodies(self, start: int, n: int, state: BodyState, offset: int = 0) -> None:
-        """Write bodies [start, start + n) from the host mirror and `state` rows [offset, offset + n)."""
-        if n == 0:
-            return
-        fdt = numpy_float()
-        hb = self._hb
-        sl = slice(start, start + n)
-        ss = slice(offset, offset + n)
-
-        def arr(lst, dt=fdt):
-            return np.ascontiguousarray(np.asarray(lst[sl], dtype=np.float64).astype(dt))
-
-        sleep_time = state.sleep_time if state.sleep_time is not None else np.zeros(len(state.x))
-        K.k_upload_bodies(
-            self._s,
-            start,
-            n,
-            arr(hb.inv_mass),
-            arr(hb.ref_com),
-            arr(hb.inv_inertia),
-            arr(hb.principal_q),
-            arr(hb.inv_principal),
-            arr(hb.restitution),
-            arr(hb.friction),
-            arr(hb.static, np.int32),
-            np.ascontiguousarray(state.alive[ss].astype(np.int32)),
-            np.ascontiguousarray(state.x[ss].astype(fdt)),
-            np.ascontiguousarray(state.q[ss].astype(fdt)),
-            np.ascontiguousarray(state.v[ss].astype(fdt)),
-            np.ascontiguousarray(state.w[ss].astype(fdt)),
-            np.ascontiguousarray(state.asleep[ss].astype(np.int32)),
-            np.ascontiguousarray(np.asarray(sleep_time[ss]).astype(fdt)),
-        )
-
-    def _upload_spheres(self, start: int, n: int) -> None:
-        if n == 0:
-            return
-        fdt = numpy_float()
-        sl = slice(start, start + n)
-        K.k_upload_spheres(
-            self._s,
-            start,
-            n,
-            np.ascontiguousarray(self._sph_local[sl].astype(fdt)),
-            np.ascontiguousarray(self._sph_radius[sl].astype(fdt)),
-            np.ascontiguousarray(self._sph_body[sl]),
-        )
-
-    def _upload_colliders(self, start: int, n: int) -> None:
-        if n == 0:
-            return
-        fdt = numpy_float()
-        c = self._col
-        sl = slice(start, start + n)
-
-        def arr(key, dt=fdt):
-            return np.ascontiguousarray(np.asarray(c[key][sl], dtype=np.float64).astype(dt))
-
-        K.k_upload_colliders(
-            self._s,
-            start,
-            n,
-            arr("kind", np.int32),
-            arr("x"),
-            arr("q"),
-            arr("n"),
-            arr("half"),
-            arr("restitution"),
-            arr("friction"),
-        )
-
-    def _download_prev(self):
-        """(pc_b, pc_ln, pc_lt, pc_start, valid) of the previous step's contacts."""
-        fdt = numpy_float()
-        nc, ns = self._nc, self._ns
-        pb = np.zeros(max(nc, 1), np.int32)
-        pln = np.zeros(max(nc, 1), fdt)
-        plt = np.zeros((max(nc, 1), 3), fdt)
-        pstart = np.zeros(ns + 1, np.int32)
-        valid = int(self._s.pc_valid[None])
-        if valid:
-            K.k_download_prev(self._s, nc, ns, pb, pln, plt, pstart)
-        return pb[:nc], pln[:nc], plt[:nc], pstart, valid
-
-    def _upload_prev(self, pb, pln, plt, pstart, valid) -> None:
-        fdt = numpy_float()
-        nc = len(pb)
-        ns = len(pstart) - 1
-        if nc > self._s.cap_contacts:  # only when shrinking, which never happens
-            valid = 0
-            nc = 0
-        K.k_upload_prev(
-            self._s,
-            nc,
-            ns,
-            np.ascontiguousarray(np.r_[pb, 0].astype(np.int32)),
-            np.ascontiguousarray(np.r_[pln, 0].astype(fdt)),
-            np.ascontiguousarray(np.concatenate([plt, np.zeros((1, 3))]).astype(fdt)),
-            np.ascontiguousarray(pstart.astype(np.int32)),
-            int(valid),
-        )
-        self._nc = nc
-
-    def _remap_prev(self, prev, old_to_new: np.ndarray, new_ns: int) -> None:
-        """Renumber the warm-start contacts `prev` (from `_download_prev` before the change) after
-        spheres were added or removed (old_to_new[i] = -1 for a removed sphere)."""
-        pb, pln, plt, pstart, valid = prev
-        if not valid or len(pb) == 0:
-            self._upload_prev(pb[:0], pln[:0], plt[:0], np.zeros(new_ns + 1, np.int32), 0)
-            return
-        counts = np.diff(pstart)
-        a_old = np.repeat(np.arange(len(counts)), counts)
-        a_new = old_to_new[a_old]
-        b_new = np.where(pb >= 0, old_to_new[np.maximum(pb, 0)], pb)
-        keep = (a_new >= 0) & ((pb < 0) | (b_new >= 0))
-        a_new, b_new, pln, plt = a_new[keep], b_new[keep], pln[keep], plt[keep]
-        order = np.lexsort((b_new, a_new))
-        a_new, b_new, pln, plt = a_new[order], b_new[order], pln[order], plt[order]
-        start = np.zeros(new_ns + 1, np.int64)
-        np.cumsum(np.bincount(a_new, minlength=new_ns), out=start[1:])
-        self._upload_prev(b_new, pln, plt, start, 1)
-
-    # ------------------------------------------------------------------ building
     def add_plane(self, point, normal, restitution: float = 0.0, friction: float = 0.5) -> int:
         """Static half-space {x : (x - point) . n <= 0} (solid below); returns the collider id."""
         n = np.asarray(normal, dtype=np.float64)
@@ -639,7 +355,7 @@ class RigidWorld:
         self.wake_near(ids, state=st)
         zero3 = np.zeros(3)
         for b in ids:
-            K.k_set_body_state(
+            transfers.k_set_body_state(
                 self._s,
                 int(b),
                 st.x[b].astype(numpy_float()),
@@ -684,7 +400,7 @@ class RigidWorld:
         """Wake bodies (no effect on static, removed or awake ones)."""
         ids = np.ascontiguousarray(np.asarray(ids, dtype=np.int32).reshape(-1))
         if len(ids):
-            K.k_wake(self._s, ids, len(ids))
+            transfers.k_wake(self._s, ids, len(ids))
 
     def set_body_state(self, body: int, x=None, q=None, v=None, w=None) -> None:
         """Overwrite the pose/velocity of a body between steps (wakes it)."""
@@ -694,7 +410,7 @@ class RigidWorld:
         q = st.q[body] if q is None else np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
         v = st.v[body] if v is None else np.asarray(v, dtype=np.float64)
         w = st.w[body] if w is None else np.asarray(w, dtype=np.float64)
-        K.k_set_body_state(
+        transfers.k_set_body_state(
             self._s,
             int(body),
             x.astype(fdt),
@@ -708,7 +424,7 @@ class RigidWorld:
     # ------------------------------------------------------------------ reading
     def awake_bodies(self) -> int:
         """Dynamic bodies not asleep (one kernel; no download of the body state)."""
-        return int(K.k_count_awake(self._s, self._nb)) if self._nb else 0
+        return int(transfers.k_count_awake(self._s, self._nb)) if self._nb else 0
 
     def body_state(self) -> BodyState:
         """Numpy copy of every body's pose and velocity (index = body id)."""
@@ -738,7 +454,7 @@ class RigidWorld:
         vn0 = np.zeros(m, fdt)
         sep = np.zeros(m, fdt)
         if nc > 0:
-            K.k_download_contacts(self._s, nc, a, b, ba, bb, p, n, ln, vn0, sep)
+            transfers.k_download_contacts(self._s, nc, a, b, ba, bb, p, n, ln, vn0, sep)
         a, b, ba, bb = a[:nc], b[:nc], ba[:nc], bb[:nc]
         return ContactEvents(
             body_a=ba.astype(np.int64),
@@ -766,103 +482,11 @@ class RigidWorld:
         return e
 
     # ------------------------------------------------------------------ stepping
-    def _lap_start(self):
-        """Stage timer (Box2D-style profile): with `self.profile` a dict, adds seconds per stage to it
-        (synchronising the device between stages, which costs a little); otherwise does nothing."""
-        if self.profile is None:
-            return lambda _name: None
-        import time
-
-        import taichi as ti
-
-        ti.sync()
-        t = [time.perf_counter()]
-
-        def lap(name: str) -> None:
-            ti.sync()
-            now = time.perf_counter()
-            self.profile[name] = self.profile.get(name, 0.0) + now - t[0]
-            t[0] = now
-
-        return lap
-
     def step(self, dt: float) -> None:
-        """Advance by dt seconds (stages in rigid.kernels)."""
+        """Advance by dt seconds: the stages of rigid/step.py."""
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.1):
             raise ConfigError("rigid.dt", dt, "(0, 0.1] s")
-        cfg = self.config
-        nb, ns, ncol = self._nb, self._ns, self._ncol
-        if nb == 0:
-            self.time += dt
-            self.step_count += 1
-            return
-        g = cfg.gravity
-        margin = cfg.speculative_margin_m
-        lap = self._lap_start()
-        while True:
-            s = self._s
-            K.k_derive(s, nb, ns, dt)
-            K.k_grid(s, ns, margin)
-            lap("broad_phase")
-            K.k_count(s, nb, ns, ncol, margin)
-            total = int(s.ct_total[None])
-            if total <= s.cap_contacts:
-                break
-            self._grow(contacts=total)
-        s = self._s
-        nc = total
-        K.k_gather(s, ns, ncol, margin)
-        K.k_setup(s, nc, int(cfg.warm_start), cfg.warm_start_factor)
-        h = dt / cfg.substeps
-        if cfg.mass_ratio_cap > 0.0:
-            K.k_levels(s, nb, nc, cfg.max_support_levels)
-            K.k_mass_scaling(s, nc, cfg.mass_ratio_cap)
-        lap("narrow_phase")
-        for sub in range(cfg.substeps):
-            K.k_substep(
-                s,
-                nb,
-                nc,
-                h,
-                float(g[0]),
-                float(g[1]),
-                float(g[2]),
-                cfg.linear_damping_per_s,
-                cfg.angular_damping_per_s,
-                cfg.max_speed_mps,
-                cfg.max_rotation_per_step_rad / cfg.substeps,
-                cfg.velocity_iterations,
-                sub % 2,
-            )
-        lap("solve_integrate")
-        K.k_correct(
-            s,
-            nb,
-            nc,
-            dt,
-            cfg.position_iterations,
-            cfg.linear_slop_m,
-            cfg.position_correction_rate,
-            cfg.max_correction_speed_mps,
-        )
-        K.k_finish(
-            s,
-            nb,
-            nc,
-            cfg.restitution_iterations,
-            cfg.restitution_threshold_mps,
-            cfg.sleep_linear_speed_mps,
-            cfg.sleep_angular_speed_radps,
-            dt,
-        )
-        lap("correct_restitute")
-        K.k_save_prev(s, nc, ns)
-        self._nc = nc
-        if cfg.sleep_enabled:
-            K.k_sleep(s, nb, nc, cfg.time_to_sleep_s)
-        lap("sleep")
-        self.time += dt
-        self.step_count += 1
+        rigid_step(self, dt)
 
 
 def _check_material(where: str, restitution: float, friction: float) -> None:

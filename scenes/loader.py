@@ -10,8 +10,9 @@ import copy
 import sys
 from pathlib import Path
 
-from sim.config import SceneConfig, from_dict
-from sim.errors import ConfigError
+from core.errors import ConfigError
+from core.spec import from_dict
+from scenes.config import SceneConfig
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.output import atomic_write_text
+from core.output import atomic_write_text
 
 
 def _poses(world):

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from sim.world import BodyInfo, World
+from sim.bodies import BodyInfo
 
 # A piece breaks again only when it holds at least this many physical-particle volumes of its object:
 # about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
@@ -23,7 +23,7 @@ from sim.world import BodyInfo, World
 MIN_BREAKABLE_PARTICLES = 32
 
 
-def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray, state=None):
+def _to_reference(world, body: int, point: np.ndarray, normal: np.ndarray, state=None):
     from rigid.quat import quat_to_matrix
 
     st = world.rigid.body_state() if state is None else state
@@ -32,7 +32,7 @@ def _to_reference(world: World, body: int, point: np.ndarray, normal: np.ndarray
     return rot.T @ (np.asarray(point) - st.x[body]) + com, rot.T @ np.asarray(normal)
 
 
-def _world_motion(world: World, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _world_motion(world, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """World positions (K,3) m and velocities v + w x r (K,3) m/s of reference points of a body."""
     from rigid.quat import quat_to_matrix
 
@@ -42,7 +42,7 @@ def _world_motion(world: World, body: int, x_ref: np.ndarray) -> tuple[np.ndarra
     return st.x[body] + r, st.v[body] + np.cross(st.w[body], r)
 
 
-def _local_radius(world: World, body: int, point_world: np.ndarray) -> float:
+def _local_radius(world, body: int, point_world: np.ndarray) -> float:
     """Radius (m) of the body's boundary sphere nearest the contact: the curvature the collision saw.
     A body split earlier in the same frame has no spheres left: it counts as flat (inf)."""
     spheres = world.rigid.body_spheres(body)
@@ -54,7 +54,7 @@ def _local_radius(world: World, body: int, point_world: np.ndarray) -> float:
     return float(radius[spheres[k]])
 
 
-def _other_body(world: World, other: int, point_world: np.ndarray) -> dict:
+def _other_body(world, other: int, point_world: np.ndarray) -> dict:
     """Mass, radius and elastic constants of what struck the body (a body, or a static collider)."""
     from sph.contact import effective_isotropic
 
@@ -69,12 +69,12 @@ def _other_body(world: World, other: int, point_world: np.ndarray) -> dict:
     return dict(m2=world.rigid.body_mass(other), R2=_local_radius(world, other, point_world), E2=young, nu2=poisson)
 
 
-def _body_material(world: World, body: int) -> int:
+def _body_material(world, body: int) -> int:
     """The body's main material (recorded when the body was made, so split bodies keep theirs)."""
     return world.body_material[body]
 
 
-def analysed_particles(world: World, body: int) -> np.ndarray:
+def analysed_particles(world, body: int) -> np.ndarray:
     """The physical particles of a body, including those already replaced by their children.
 
     The paper analyses stress "on the original model" (Sect. 1, 5): subdivided children track the
@@ -147,7 +147,7 @@ def held_particles(obj, bounds, x: np.ndarray) -> np.ndarray:
     return ((x - lo < obj.held_border) | (hi - x < obj.held_border))[:, axes].any(1)
 
 
-def contact_in_reference(world: World, body: int, other: int, point_w: np.ndarray, normal_w: np.ndarray,
+def contact_in_reference(world, body: int, other: int, point_w: np.ndarray, normal_w: np.ndarray,
                          state=None) -> dict:
     """The contact as the struck body saw it at that substep, in its reference frame: point, inward
     normal and the striker's centre of mass (None for a collider or a static body). Recorded when
@@ -161,7 +161,7 @@ def contact_in_reference(world: World, body: int, other: int, point_w: np.ndarra
     return dict(point=point, normal=normal, striker=striker)
 
 
-def analyse(world: World, body: int, impact: dict):
+def analyse(world, body: int, impact: dict):
     """Algorithm 1 at the impact point; returns the ImpactAnalysis (cracks in the reference frame)."""
     from sph.cracks import ImpactSpec, analyse_impact, tet_edge
 
@@ -189,7 +189,7 @@ def analyse(world: World, body: int, impact: dict):
     return result
 
 
-def across_materials(world: World, body: int, ids: np.ndarray, spec, material: int, cracks: list) -> list:
+def across_materials(world, body: int, ids: np.ndarray, spec, material: int, cracks: list) -> list:
     """Sect. 6, Fig. 12: a crack that reaches particles of another material stops there, and the
     nearest crossing point starts a new analysis (Algorithm 1) in the other material's particles,
     with its constants, kernel and crack count, struck by the same impact (same normal and speed):
@@ -219,7 +219,7 @@ def across_materials(world: World, body: int, ids: np.ndarray, spec, material: i
     return out
 
 
-def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
+def cut_body(world, body: int, cracks: list, record: dict) -> dict:
     """Apply cracks to one body: cut, shatter, split into fragment bodies. Returns the event record."""
     from geometry.fragments import apply_cracks
     from rigid.bodies import split_body
@@ -282,7 +282,7 @@ def cut_body(world: World, body: int, cracks: list, record: dict) -> dict:
     return record
 
 
-def _free_particles(world: World, body: int, ps, idx: np.ndarray) -> None:
+def _free_particles(world, body: int, ps, idx: np.ndarray) -> None:
     """Particles `idx` of `body` leave it as debris: free spheres keeping the body's velocity field
     (v + w x r) with the `debris` effect; without it they leave the simulation, their mass booked."""
     world.debris_pieces += len(idx)
@@ -295,7 +295,7 @@ def _free_particles(world: World, body: int, ps, idx: np.ndarray) -> None:
     ps.body[idx] = -1
 
 
-def _held_labels(world: World, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
+def _held_labels(world, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Per label: True when the fragment touches the held border of a static object (a window frame)."""
     near = held_particles(obj, obj_bounds, world.particles.centroid[ids])
     held = np.zeros(int(labels.max()) + 1, dtype=bool)
@@ -303,7 +303,7 @@ def _held_labels(world: World, obj, obj_bounds, ids: np.ndarray, labels: np.ndar
     return held
 
 
-def fracture_body(world: World, body: int, impact: dict) -> dict | None:
+def fracture_body(world, body: int, impact: dict) -> dict | None:
     """Analyse an impact on `body` and, when it cracks, cut and split it. Returns the event record."""
     t0 = time.perf_counter()
     result = analyse(world, body, impact)

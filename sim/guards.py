@@ -21,9 +21,7 @@ Input and set-up guards:
   the rigid step must lie in (0, 0.1] s. Raises `TimeStepError` (a ConfigError) naming the key.
 - `check_scene(cfg)`: what the scene schema cannot see alone: initial speeds above the rigid
   solver's speed clamp (they would be silently cut to `max_speed_mps`), a rigid step above 0.1 s.
-- `check_surface_overlap(vertices, faces, source)`: a closed, consistently wound surface can
-  still overlap itself (two intersecting shells in one file, a fold); the generalised winding
-  number just inside and just outside sampled faces must be 1 and 0.
+- mesh input is guarded in geometry/surface_checks.py (overlapping or folded shells).
 
 Also `state_hash(world)`: SHA-256 of the bodies' poses and velocities and of the particle table,
 for determinism checks (stats.json can carry it).
@@ -37,7 +35,7 @@ import weakref
 
 import numpy as np
 
-from sim.errors import ConfigError, MeshError, SandboxError
+from core.errors import ConfigError, SandboxError
 
 QUAT_NORM_TOL = 1e-6  # -: |q| may differ from 1 by this much (renormalised every substep)
 STABLE_DT_RTOL = 1e-12  # -: relative slack on the stable elastic step (round-off of dt_frame / steps)
@@ -310,58 +308,6 @@ def check_scene(cfg, max_speed_mps: float | None = None) -> None:
                 raise ConfigError(f"objects[{i}].velocity", o.velocity,
                                   f"a speed <= {vmax:g} m/s (the rigid solver's speed clamp; is {speed:.6g} m/s)",
                                   cfg.source)
-
-
-# ---------------------------------------------------------------------------------------- meshes
-def winding_numbers(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, chunk: int = 64) -> np.ndarray:
-    """Generalised winding number of a triangle surface at points (P, 3): the sum of the signed solid
-    angles of the triangles (van Oosterom and Strackee 1983) over 4 pi. 1 inside a closed outward
-    surface, 0 outside, 2 where two shells overlap, -1 inside an inverted one."""
-    tri = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.int64)]  # (F, 3, 3)
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    out = np.empty(len(pts))
-    for s in range(0, len(pts), chunk):
-        d = tri[None] - pts[s:s + chunk, None, None, :]  # (p, F, 3, 3)
-        a, b, c = d[..., 0, :], d[..., 1, :], d[..., 2, :]
-        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
-        num = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc + np.einsum("pfi,pfi->pf", b, c) * la
-               + np.einsum("pfi,pfi->pf", c, a) * lb)
-        out[s:s + chunk] = 2.0 * np.arctan2(num, den).sum(1) / (4.0 * np.pi)
-    return out
-
-
-def check_surface_overlap(vertices: np.ndarray, faces: np.ndarray, source: str, max_faces: int = 256,
-                          offset_rel: float = 1e-4) -> None:
-    """Refuse a surface whose winding number just inside (outside) sampled faces is not 1 (0).
-
-    Detects overlapping shells, folds and pockets whose volume is counted twice or negatively
-    (the mesh validation of geometry.mesh_io checks closure and winding, not self-intersection).
-    Up to `max_faces` faces are probed (a fixed stride, deterministic), `offset_rel` x the bounding
-    box diagonal off their centroids. Touching without overlap is not detected.
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    tri = v[f]
-    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area2 = np.linalg.norm(nrm, axis=1)
-    probe = np.flatnonzero(area2 > 0.0)
-    if probe.size > max_faces:
-        probe = probe[np.linspace(0, probe.size - 1, max_faces).astype(np.int64)]
-    diag = float(np.linalg.norm(np.ptp(v, axis=0)))
-    delta = offset_rel * diag
-    c = tri[probe].mean(1)
-    n = nrm[probe] / area2[probe, None]
-    w_in = winding_numbers(v, f, c - delta * n)
-    w_out = winding_numbers(v, f, c + delta * n)
-    bad = np.flatnonzero((np.abs(w_in - 1.0) > 0.5) | (np.abs(w_out) > 0.5))
-    if bad.size:
-        k = int(bad[0])
-        raise MeshError(
-            source, "self-intersecting surface (overlapping or folded shells)",
-            f"winding number {w_in[k]:.3g} inside and {w_out[k]:.3g} outside face {int(probe[k])}, "
-            f"expected 1 and 0; {bad.size} of {probe.size} probed faces",
-        )
 
 
 # ----------------------------------------------------------------------------------- determinism

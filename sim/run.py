@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.config import SceneConfig
+from core.output import atomic_write_json, prepare_output_dir
+from core.runtime import runtime
+from scenes.config import SceneConfig
 from sim.guards import state_hash
-from sim.output import atomic_write_json, prepare_output_dir
-from sim.runtime import runtime
 
 STATS_VERSION = 1
 

@@ -16,31 +16,18 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.errors import ConfigError
 from geometry.build import build_object, make_shape
 from geometry.particles import ParticleSet
-from sim.config import SceneConfig
-from sim.errors import ConfigError
+from scenes.config import SceneConfig
+from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
 from sim.timers import StageTimers
 
 SMALL_PIECE = 0.01  # 1: pieces lighter than this fraction of their object's mass count as small
-
-
-@dataclass
-class BodyInfo:
-    """Host-side facts about a simulated body (index = rigid body id)."""
-
-    object_index: int  # index into scene.objects
-    breakable: bool
-    static: bool
-    thickness: float  # m: the object's thickness B (Eq. 11)
-    resolution: float  # m: tet size the object was built at
-    history: list = field(default_factory=list)  # cracks already applied (reference frame)
-    bounds: tuple = ()  # (lo, hi) m: rest bounding box of the object the body came from
 
 
 def euler_xyz_deg(angles) -> np.ndarray:

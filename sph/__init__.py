@@ -2,5 +2,5 @@
 principal values, corotated SPH elasticity (Eq. 1-3, 7-10) and the explicit `elastic` effect.
 
 Modules import Taichi but do no Taichi work at import time; fields are built in constructors
-after `sim.runtime.init_taichi`.
+after `core.runtime.init_taichi`.
 """

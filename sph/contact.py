@@ -90,7 +90,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 HERTZ_DURATION_CONST = 0.8 * math.gamma(0.4) * math.gamma(0.5) / math.gamma(0.9)  # 2.94325: t = c d_max / v
 

@@ -58,7 +58,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from sim.runtime import numpy_float
+from core.runtime import numpy_float
 from sph.materials import p_wave_modulus_max
 from sph.neighbours import NeighbourSearch
 

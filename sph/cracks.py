@@ -1,7 +1,9 @@
 """Crack generation at an impact: the paper's Algorithm 1 (Sect. 4.2, Fig. 2, Eq. 1, 7, 8, 11, U_limit).
 
 `analyse_impact` runs one analysis on the host (numpy, float64; the neighbourhood is tens to a few
-hundred particles, everything is vectorised, no Python loop per particle):
+hundred particles, everything is vectorised, no Python loop per particle). Its steps are functions
+of sph/algorithm1.py named after the paper's lines; the struck wall is sph/struck_wall.py, Eq. 7
+is sph/gradient.py, cracks that reach another material are sph/crossings.py. The steps:
 
  1. Contact (sph/contact.py): the Hertz impact of the two bodies gives the peak force F, the contact
     radius a and area S = pi a^2. The struck body's (E1, nu1) is the Hill average of its stiffness.
@@ -101,37 +103,20 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from geometry.cutting import Crack, in_region, signed_distance
-from sim.errors import ConfigError
-from sph.contact import (
-    HertzImpact,
-    boussinesq_displacement,
-    boussinesq_gradient,
-    effective_isotropic,
-    hertz_impact,
-    hertz_threshold_speed,
-    plate_displacement,
-    plate_gradient,
-    speed_for_force,
-)
-from sph.eigen import sym_eig3_np
-from sph.kernel import GRAD_NORM
-from sph.materials import Material, strain_to_voigt, stress_from_voigt
-from sph.structure import Beam, plate_energy, series_impact, star_crack_count
+from core.errors import ConfigError
+from geometry.cutting import Crack
+from sph import algorithm1 as alg
+from sph.algorithm1 import tet_edge
+from sph.contact import HertzImpact, effective_isotropic, hertz_impact, hertz_threshold_speed, speed_for_force
+from sph.crossings import MaterialCrossing, material_crossings, stop_at_crossings
+from sph.gradient import CORRECTIONS, neighbour_pairs, sph_gradient
+from sph.materials import Material
+from sph.structure import series_impact, star_crack_count
 
 FIELDS = ("auto", "halfspace", "plate", "beam")
-STRUCTURAL_DEPTH = 0.25  # depth / longest in-plane size of the struck wall below which it bends (plate, beam)
-SLENDER_WIDTH = 0.35  # width / length of the struck wall below which it is a beam ...
-SLENDER_DEPTH = 3.0  # ... when its width is also under this many depths (a compact section)
 GRADIENTS = ("sph", "analytic")  # Eq. 7 on the particles, or the field's exact gradient (reference)
 MAX_CRACKS = 64  # crack_count limit (a sector narrower than ~6 degrees holds no particle)
-DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
-SIDE_MIN = 0.1  # |side projection| below which the side falls back (angle to the normal < ~6 deg)
-ISO_TOL = 1e-6  # relative difference of in-plane kernel lengths below which G_P has no in-plane axis
-CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
-QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
 
 
 @dataclass
@@ -268,255 +253,11 @@ class ImpactAnalysis:
         }
 
 
-# ----------------------------------------------------------------------------- helpers
-
-
-def tet_edge(volume: float) -> float:
-    """Edge (m) of the regular tet of this volume (m^3)."""
-    return float(np.cbrt(6.0 * math.sqrt(2.0) * volume))
-
-
-def _reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | None) -> np.ndarray:
-    if reference is not None:
-        e1 = reference - np.dot(reference, n) * n
-    else:
-        axes = np.eye(3)
-        helper = axes[int(np.argmin(np.abs(n)))]  # least aligned with n (argmin: lowest index on ties)
-        t1 = helper - np.dot(helper, n) * n
-        t1 /= np.linalg.norm(t1)
-        t2 = np.cross(n, t1)
-        T = np.stack([t1, t2])
-        G2 = GP @ GP
-        block = T @ G2 @ T.T  # in-plane section of the support: |G r|^2 = r^T G^2 r
-        w, v = np.linalg.eigh(block)
-        if w[1] - w[0] > ISO_TOL * w[1]:
-            e1 = T.T @ v[:, 0]  # smallest eigenvalue: the longest in-plane axis
-        else:
-            e1 = t1
-    e1 = e1 / np.linalg.norm(e1)
-    k = int(np.argmax(np.abs(e1) - 1e-12 * np.arange(3)))
-    return -e1 if e1[k] < 0.0 else e1
-
-
-@dataclass
-class StruckWall:
-    """The part of the struck body that carries the impact: the particles between the struck face
-    and the far face of the wall under P (a hollow body's far wall excluded), with the principal
-    in-plane axes of their spread (volume-weighted)."""
-
-    x: np.ndarray  # (W,3) m: offsets from P of the wall's particles
-    volumes: np.ndarray  # (W,) m^3
-    depth_of: np.ndarray  # (W,) m: their depth along n
-    edges: np.ndarray  # (W,) m: their tet edges
-    frame: np.ndarray  # (3,3) rows: long in-plane axis, short in-plane axis, n
-    length: float  # m: extent along the long axis (centroids plus one tet edge)
-    width: float  # m: extent along the short axis
-    _y_bar: float = 0.0  # m: lateral offset of the section centroid (set by `beam`)
-    _z_bar: float = 0.0  # m: depth of the neutral axis (set by `beam`)
-
-    @property
-    def axis(self) -> np.ndarray:
-        return self.frame[0]
-
-    @property
-    def volume(self) -> float:
-        return float(self.volumes.sum())
-
-    def kind(self, depth: float) -> str:
-        """'auto' field: a wall much thinner than it is long bends: a beam when it is also narrow
-        with a compact section, else a plate; a thick body is a half-space."""
-        if depth >= STRUCTURAL_DEPTH * self.length:
-            return "halfspace"
-        if self.width < SLENDER_WIDTH * self.length and self.width < SLENDER_DEPTH * depth:
-            return "beam"
-        return "plate"
-
-    def local(self, offsets: np.ndarray) -> np.ndarray:
-        """(N,3) beam coordinates (s, y, z) of offsets from P: along the axis, lateral from the
-        section's centroid, depth from its neutral axis (set by `beam`)."""
-        q = offsets @ self.frame.T
-        return q - np.array([0.0, self._y_bar, self._z_bar])
-
-    def beam(self, E_axis: float, nu: float, mass: float, held: bool, e_near: float) -> Beam:
-        """Euler-Bernoulli beam of this wall (sph/structure.py): ends at its extremes along the
-        axis, section from the particles within a slab |s| < 2 tet edges of P: area = wall volume /
-        length, second moment = area x (variance of depth, plus e^2/20 per tet: a regular tet's own
-        variance along any axis)."""
-        q = self.x @ self.frame.T
-        s = q[:, 0]
-        slab = np.abs(s) < max(2.0 * e_near, 1e-12)
-        if slab.sum() < 2:
-            slab = np.argsort(np.abs(s))[: min(8, len(s))]
-        v = self.volumes[slab]
-        self._y_bar = float(np.average(q[slab, 1], weights=v))
-        self._z_bar = float(np.average(q[slab, 2], weights=v))
-        k2 = float(np.average((q[slab, 2] - self._z_bar) ** 2 + self.edges[slab] ** 2 / 20.0, weights=v))
-        pad = 0.5 * float(self.edges.mean())
-        s_left, s_right = max(-float(s.min()) + pad, pad), max(float(s.max()) + pad, pad)
-        area = self.volume / (s_left + s_right)
-        return Beam(E_axis, nu, area * k2, s_left, s_right, mass, held=held)
-
-
-def _struck_wall(d: np.ndarray, depth: np.ndarray, volume: np.ndarray, n: np.ndarray, z_far: float,
-                 e_near: float) -> StruckWall:
-    """The struck wall (StruckWall) from offsets d (N,3) from P, depths (N,), volumes (N,)."""
-    inw = np.flatnonzero((depth >= -e_near) & (depth <= z_far + e_near))
-    if inw.size == 0:
-        inw = np.array([int(np.argmin(np.einsum("ij,ij->i", d, d)))])
-    x, v = d[inw], volume[inw]
-    q = x - np.outer(x @ n, n)
-    cov = np.einsum("w,wi,wj->ij", v, q, q) / v.sum()
-    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
-    t1 = helper - np.dot(helper, n) * n
-    t1 /= np.linalg.norm(t1)
-    T = np.stack([t1, np.cross(n, t1)])
-    w, vec = np.linalg.eigh(T @ cov @ T.T)
-    a = T.T @ vec[:, 1]  # largest spread: the long axis
-    k = int(np.argmax(np.abs(a) - 1e-12 * np.arange(3)))
-    a = -a if a[k] < 0.0 else a
-    frame = np.stack([a, np.cross(n, a), n])
-    e = np.cbrt(6.0 * math.sqrt(2.0) * v)
-    length = float(np.ptp(q @ a)) + float(e.mean())
-    width = float(np.ptp(q @ frame[1])) + float(e.mean())
-    return StruckWall(x, v, x @ n, e, frame, length, width)
-
-
-def E_along(C: np.ndarray, axis: np.ndarray) -> float:
-    """Young's modulus (Pa) along a unit axis of the Voigt stiffness C: 1/E = v^T C^-1 v with
-    v = (a_x^2, a_y^2, a_z^2, a_y a_z, a_x a_z, a_x a_y) (uniaxial stress along the axis)."""
-    a = np.asarray(axis, dtype=np.float64)
-    v = np.array([a[0] ** 2, a[1] ** 2, a[2] ** 2, a[1] * a[2], a[0] * a[2], a[0] * a[1]])
-    return float(1.0 / (v @ np.linalg.solve(C, v)))
-
-
-def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
-    """Pairs (e, j) with member members[e] and local particle j != it, |G_i (x_j - x_i)| < 1
-    (gather with the member's own kernel, as sph/neighbours.py). Returns (owner e, index j), sorted."""
-    Gm = G[members]
-    rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]
-    tm = cKDTree(x[members])
-    tl = cKDTree(x[local])
-    sdm = tm.sparse_distance_matrix(tl, float(rho.max()) * (1.0 + 1e-12), output_type="ndarray")
-    e = sdm["i"].astype(np.int64)
-    j = local[sdm["j"].astype(np.int64)]
-    keep = j != members[e]
-    e, j = e[keep], j[keep]
-    xi = x[j] - x[members[e]]
-    q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], xi), axis=1)
-    keep = q < 1.0
-    e, j = e[keep], j[keep]
-    order = np.lexsort((j, e))
-    return e[order], j[order]
-
-
-def _quad_basis(X: np.ndarray) -> np.ndarray:
-    """(E,9) linear and quadratic monomials of scaled offsets X (E,3)."""
-    return np.concatenate([X, X * X, X[:, [0]] * X[:, [1]], X[:, [0]] * X[:, [2]], X[:, [1]] * X[:, [2]]], axis=1)
-
-
-def sph_gradient(
-    x: np.ndarray,
-    volume: np.ndarray,
-    G: np.ndarray,
-    u: np.ndarray,
-    members: np.ndarray,
-    owner: np.ndarray,
-    nbr: np.ndarray,
-    correction: bool | int = 2,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. 7 at each member: grad u_i = sum_j (u_j - u_i) (x) d_ij (module doc, step 5).
-
-    x (N,3), volume (N,), G (N,3,3), u (N,3) (rows needed: members and their neighbours), pairs
-    (owner, nbr) from `neighbour_pairs`. correction: 0/False plain SPH (Eq. 7 as printed),
-    1/True Bonet-Lok, 2 quadratic weighted least squares. Returns (grad (M,3,3), order used (M,))."""
-    order = int(correction)
-    if order not in CORRECTIONS:
-        raise ConfigError("analyse_impact.correction", correction, "0/False (plain), 1/True (Bonet-Lok), 2 (quadratic)")
-    m = members.size
-    used = np.zeros(m, dtype=np.int64)
-    if owner.size == 0:
-        return np.zeros((m, 3, 3)), used
-    # padded layout (member, slot): every sum over a member's neighbours is a batched matmul
-    cnt = np.bincount(owner, minlength=m)
-    start = np.concatenate([[0], np.cumsum(cnt)[:-1]])
-    slot = np.arange(owner.size) - start[owner]
-    K = int(cnt.max())
-
-    def pad(vals: np.ndarray) -> np.ndarray:
-        out = np.zeros((m, K) + vals.shape[1:])
-        out[owner, slot] = vals
-        return out
-
-    i = members[owner]
-    xi = x[nbr] - x[i]
-    Gm = G[members]
-    Gi = Gm[owner]
-    Gx = np.einsum("eab,eb->ea", Gi, xi)
-    q = np.linalg.norm(Gx, axis=1)
-    inside = (q > 0.0) & (q < 1.0)
-    qs = np.where(inside, q, 1.0)
-    k = np.where(inside, GRAD_NORM * np.linalg.det(Gm)[owner] * (1.0 - qs) ** 2 / qs, 0.0)
-    g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
-    Vg = pad(volume[nbr][:, None] * g)  # (m, K, 3) plain SPH weights V_j grad W (Eq. 7, 10)
-    d = Vg
-    if order >= 1:
-        Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi))  # sum_j V_j grad W (x) xi
-        scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
-        det = np.linalg.det(Bm)
-        ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
-        L = np.tile(np.eye(3), (m, 1, 1))
-        if ok.any():
-            L[ok] = np.linalg.inv(Bm[ok])
-        used[ok] = 1
-        d = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
-    if order == 2:
-        srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: scales the basis
-        w = pad(volume[nbr] * k)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
-        pb = pad(_quad_basis(xi / srad[owner, None]))  # (m, K, 9)
-        ok2 = cnt >= 9
-        if ok2.any():
-            Mq = np.matmul(pb[ok2].transpose(0, 2, 1), w[ok2][:, :, None] * pb[ok2])
-            Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
-            c = np.matmul(pb[ok2], Mi)[:, :, :3] * (w[ok2] / srad[ok2, None])[:, :, None]
-            d = d.copy()
-            d[ok2] = c
-            used[ok2] = 2
-    du = pad(u[nbr] - u[i])
-    grad = np.matmul(du.transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
-    return grad, used
-
-
-def _tensile_part(sig: np.ndarray) -> np.ndarray:
-    """(M,3,3) sigma^+ = sum_k max(s_k, 0) v_k v_k^T (LAPACK eigh, vectorised; exact for symmetric input)."""
-    if sig.shape[0] == 0:
-        return sig.copy()
-    w, v = np.linalg.eigh(sig)
-    return np.einsum("mik,mk,mjk->mij", v, np.maximum(w, 0.0), v)
-
-
 # ----------------------------------------------------------------------------- Algorithm 1
 
 
-def analyse_impact(
-    x: np.ndarray,
-    volume: np.ndarray,
-    G: np.ndarray,
-    material: Material,
-    impact: ImpactSpec,
-    crack_count: int,
-    thickness: float,
-    correction: bool | int = 2,
-    field: str = "auto",
-    gradient: str = "sph",
-) -> ImpactAnalysis:
-    """Algorithm 1 at the contact point (module doc). x (N,3) m reference-frame rest centroids of the
-    struck body's alive particles, volume (N,) m^3, G (N,3,3) or (3,3) 1/m kernel tensors, material
-    (stiffness, tensile_strength, toughness G_c), impact: ImpactSpec, crack_count N >= 1, thickness
-    B (m, Eq. 11), correction: Bonet-Lok kernel correction of Eq. 7, field: 'auto', 'halfspace' or
-    'plate' or 'beam'. Raises ConfigError on bad input."""
-    clock = time.perf_counter
-    t0 = clock()
-    tim: dict = {}
+def _checked_inputs(x, volume, G, crack_count, thickness, correction, field_kind, gradient):
+    """The arguments of analyse_impact as float64 arrays; ConfigError naming the first bad one."""
     x = np.asarray(x, dtype=np.float64)
     volume = np.asarray(volume, dtype=np.float64).reshape(-1)
     n_all = x.shape[0] if x.ndim == 2 else 0
@@ -536,259 +277,79 @@ def analyse_impact(
     B = float(thickness)
     if not (math.isfinite(B) and B > 0.0):
         raise ConfigError("thickness", thickness, "> 0 m and finite")
-    if field not in FIELDS:
-        raise ConfigError("analyse_impact.field", field, ", ".join(FIELDS))
+    if field_kind not in FIELDS:
+        raise ConfigError("analyse_impact.field", field_kind, ", ".join(FIELDS))
     if gradient not in GRADIENTS:
         raise ConfigError("analyse_impact.gradient", gradient, ", ".join(GRADIENTS))
     if correction not in CORRECTIONS:  # True == 1, False == 0
         raise ConfigError("analyse_impact.correction", correction, "0/False (plain), 1/True (Bonet-Lok), 2 (quadratic)")
-    C = np.asarray(material.stiffness, dtype=np.float64)
-    sigma_t = float(material.tensile_strength)
-    Gc = float(material.toughness)
+    return x, volume, G, (None if auto else N), B
 
-    # 1. contact
+
+def analyse_impact(
+    x: np.ndarray,
+    volume: np.ndarray,
+    G: np.ndarray,
+    material: Material,
+    impact: ImpactSpec,
+    crack_count: int,
+    thickness: float,
+    correction: bool | int = 2,
+    field: str = "auto",
+    gradient: str = "sph",
+) -> ImpactAnalysis:
+    """Algorithm 1 at the contact point (module doc; its steps are in sph/algorithm1.py). x (N,3) m
+    reference-frame rest centroids of the struck body's alive particles, volume (N,) m^3, G (N,3,3)
+    or (3,3) 1/m kernel tensors, material (stiffness, tensile_strength, toughness G_c), impact:
+    ImpactSpec, crack_count N >= 1 or 'auto', thickness B (m, Eq. 11), correction: the gradient
+    order of Eq. 7, field: 'auto', 'halfspace', 'plate' or 'beam'. Raises ConfigError on bad input."""
+    clock = time.perf_counter
+    t0 = clock()
+    x, volume, G, N, B = _checked_inputs(x, volume, G, crack_count, thickness, correction, field, gradient)
+    C = np.asarray(material.stiffness, dtype=np.float64)
+    sigma_t, Gc = float(material.tensile_strength), float(material.toughness)
+    P, n = impact.point, impact.normal
+    # 1. contact (Hertz); 2. lines 1-6: G_P, N_p and the wall under P
     E1, nu1 = effective_isotropic(C)
     hz = hertz_impact(impact.m1, impact.m2, impact.R1, impact.R2, E1, nu1, impact.E2, impact.nu2, impact.speed)
+    nb = alg.neighbourhood(x, volume, G, P, n, impact.reference)
+    wf = alg.wall_field(nb, field, B, E1, nu1, C, impact.m1, impact.held)
+    hz = series_impact(hz, wf.body_energy)  # the wall's compliance in series with the contact
     F = hz.force
-    P, n = impact.point, impact.normal
-
-    # 2. nearest particle, its kernel, the analysed set N_p (Algorithm 1, lines 1-6)
-    d = x - P
-    dist2 = np.einsum("ij,ij->i", d, d)
-    nearest = int(np.argmin(dist2))
-    GP = np.array(G[nearest])
-    if np.linalg.eigvalsh(GP)[0] <= 0.0:
-        raise ConfigError(f"analyse_impact.G[{nearest}]", GP.tolist(), "symmetric positive definite")
-    rho = float(1.0 / np.linalg.eigvalsh(GP)[0])
-    cand = np.flatnonzero(dist2 < rho * rho * (1.0 + 1e-12))
-    qP = np.linalg.norm(d[cand] @ GP.T, axis=1)
-    members = cand[qP < 1.0]
-    m = members.size
-
-    e1 = _reference_direction(GP, n, impact.reference)
-    frame = np.stack([e1, np.cross(n, e1), n])
-
-    V_near = float(volume[nearest])
-    r_near = float(np.cbrt(3.0 * V_near / (4.0 * math.pi)))
-    depth_all = d @ n
-    inplane2 = np.maximum(dist2 - depth_all * depth_all, 0.0)
-    # depth of the body below P: the column within one tet edge of the normal line, down to its first
-    # gap wider than two tet edges of the particles beside it (a hollow body's far wall is not part
-    # of the struck wall)
-    e_near = tet_edge(V_near)
-    col = np.flatnonzero((inplane2 < e_near * e_near) & (depth_all >= -r_near))
-    z_mid = 0.0
-    if col.size:
-        order_z = np.argsort(depth_all[col], kind="stable")
-        zc = depth_all[col][order_z]
-        ec = np.cbrt(6.0 * math.sqrt(2.0) * volume[col][order_z])  # tet edges of the column
-        gaps = np.flatnonzero(np.diff(zc) > 2.0 * np.maximum(ec[:-1], ec[1:]))
-        z_far = float(zc[gaps[0]] if gaps.size else zc[-1])
-        depth = z_far + r_near
-        z_mid = 0.5 * (float(zc[0]) + z_far)  # mid-surface of the struck wall (centroid depths)
-    else:
-        depth, z_far = r_near, 0.0
-    depth = max(depth, r_near)
-    wall = _struck_wall(d, depth_all, volume, n, z_far, e_near)
-    use = field
-    if use == "auto":
-        use = wall.kind(depth)
-    beam = None
-    e_body = 0.0
-    Bf = min(B, depth) if use == "plate" else 0.0
-    z_shift = np.array([0.0, 0.0, z_mid - 0.5 * Bf])  # plate field: zeta = z - z_mid
-    Lp = 0.0
-    if use == "plate":
-        # support radius: that of a disc with the wall's mid-surface area (a pane: about its size)
-        Lp = max(math.sqrt(wall.volume / (math.pi * Bf)), 2.0 * rho)
-        e_body = plate_energy(E1, nu1, Bf, Lp)
-    elif use == "beam":
-        beam = wall.beam(E_along(C, wall.axis), nu1, impact.m1, impact.held, e_near)
-        e_body = beam.energy()
-    hz = series_impact(hz, e_body)
-    F = hz.force
-    ell = max(hz.radius_a, r_near)
-    if auto:  # N from the struck wall's bending vs fracture energy (sph/structure.py, Vandenberghe 2013)
-        h_wall = Bf if use == "plate" else min(B, depth)
+    ell = max(hz.radius_a, nb.r_near)  # regularisation: the field is not resolved below a particle
+    if N is None:  # cracks = "auto": N from the wall's bending vs fracture energy (Vandenberghe 2013)
+        h_wall = wf.plate_thickness if wf.kind == "plate" else min(B, nb.depth)
         N = int(np.clip(round(star_crack_count(E1, h_wall, Gc, material.density, impact.speed)), 1, MAX_CRACKS))
-    bis_ang = 2.0 * math.pi * np.arange(N) / N
-    bis = np.cos(bis_ang)[:, None] * frame[0] + np.sin(bis_ang)[:, None] * frame[1]
-    if use in ("plate", "beam"):
-        # a wall that bends: G_P's kernel swept from P through the wall to its far face, so that the
-        # bending tension on the far side is in the analysed set (Algorithm 1, lines 1-6)
-        t_ax = np.clip(depth_all, 0.0, z_far)
-        reach_c = rho + z_far
-        cand = np.flatnonzero(dist2 < reach_c * reach_c * (1.0 + 1e-12))
-        off = d[cand] - t_ax[cand, None] * n
-        members = cand[np.linalg.norm(off @ GP.T, axis=1) < 1.0]
-        m = members.size
-    tim["select_ms"] = (clock() - t0) * 1e3
-
-    # 3. neighbours of the members and the contact displacement at unit force
+    members = alg.swept_members(nb, n) if wf.kind in ("plate", "beam") else nb.members
+    tim = {"select_ms": (clock() - t0) * 1e3}
+    # 3. line 7: the contact displacement on the members and their neighbours (unit force)
     t1 = clock()
-    if m and gradient == "sph":
-        Gm_rho = 1.0 / np.linalg.eigvalsh(G[members])[:, 0]
-        reach = float(np.sqrt(dist2[members].max())) + float(Gm_rho.max())
-        local = np.flatnonzero(dist2 < reach * reach * (1.0 + 1e-12))
-        owner, nbr = neighbour_pairs(x, G, members, local)
-        need = np.union1d(members, nbr)
-    else:
-        owner = nbr = np.zeros(0, dtype=np.int64)
-        need = members
-    u = np.zeros((n_all, 3))
-    if need.size:
-        loc = d[need] @ frame.T
-        if use == "beam":
-            u_loc = beam.displacement(wall.local(d[need])) @ wall.frame @ frame.T
-        elif use == "plate":
-            u_loc = plate_displacement(loc - z_shift, 1.0, E1, nu1, Bf, Lp, ell)
-        else:
-            u_loc = boussinesq_displacement(loc, 1.0, E1, nu1, ell)
-        u[need] = u_loc @ frame  # local (e1, e2, n) components -> reference frame
+    u, owner, nbr = alg.displacement(x, G, nb, members, wf, E1, nu1, ell, gradient)
     tim["field_ms"] = (clock() - t1) * 1e3
-
-    # 4-5. per-member gradient, strain, stress, energy (unit force); groups
+    # 4-5. lines 10-16: per-member strain, stress, energy; groups; Rankine
     t2 = clock()
-    if gradient == "sph":
-        grad, _ = sph_gradient(x, volume, G, u, members, owner, nbr, correction)
-    elif use == "beam":
-        grad = np.einsum("ai,mab,bj->mij", wall.frame, beam.gradient(wall.local(d[members])), wall.frame)
-    elif use == "plate":
-        lm = d[members] @ frame.T
-        grad = np.einsum("ai,mab,bj->mij", frame, plate_gradient(lm - z_shift, 1.0, E1, nu1, Bf, Lp, ell), frame)
-    else:
-        lm = d[members] @ frame.T
-        grad = np.einsum("ai,mab,bj->mij", frame, boussinesq_gradient(lm, 1.0, E1, nu1, ell), frame)
-    eps = 0.5 * (grad + np.swapaxes(grad, 1, 2))
-    ev = strain_to_voigt(eps)
-    sv = ev @ C.T
-    sig = stress_from_voigt(sv)
-    U1 = 0.5 * volume[members] * np.einsum("mi,mi->m", ev, sv)  # J per N^2
-    sig_plus = _tensile_part(sig)
-    lm = d[members] @ frame.T
-    theta = np.arctan2(lm[:, 1], lm[:, 0]) if m else np.zeros(0)
-    sector = 2.0 * math.pi / N
-    grp = (np.floor(np.mod(theta + 0.5 * sector, 2.0 * math.pi) / sector).astype(np.int64)) % N
-    w = volume[members] * np.cos(theta - bis_ang[grp]) ** 2
-    wsum = np.bincount(grp, weights=w, minlength=N)
-    cnt = np.bincount(grp, minlength=N)
-    safe = np.where(wsum > 0.0, wsum, 1.0)
-
-    def gmean(a: np.ndarray) -> np.ndarray:
-        flat = (w[:, None, None] * a).reshape(m, 9)
-        sums = np.stack([np.bincount(grp, weights=flat[:, c], minlength=N) for c in range(9)], axis=1)
-        return sums.reshape(N, 3, 3) / safe[:, None, None]
-
-    g_grad = gmean(grad) * F
-    g_eps = gmean(eps) * F
-    g_sig = gmean(sig) * F
-    T1 = gmean(sig_plus)
-    # plane stress where the wall is thin: across a plate (its normal n), or across a thin body
-    # struck on its edge (a coin on its rim: its thin in-plane axis), whose free faces carry no load;
-    # a half-space field's tension along that axis would split the body into slices
-    Pi = np.eye(3)
-    if use == "plate":  # thin-plate theory (sigma_iz = 0); drops the out-of-plane noise too
-        Pi = np.eye(3) - np.outer(n, n)
-    elif use == "halfspace" and wall.width < SLENDER_WIDTH * wall.length:
-        Pi = np.eye(3) - np.outer(wall.frame[1], wall.frame[1])
-    T1 = Pi @ T1 @ Pi
-    U_g = np.bincount(grp, weights=U1, minlength=N) * F * F if m else np.zeros(N)
-    pvals = np.zeros((N, 3))
-    pdirs = np.zeros((N, 3))
-    for k in range(N):  # N groups (a handful): sph.eigen as the conventions ask
-        vals, vecs = sym_eig3_np(T1[k])
-        nk = vecs[:, 0]
-        t_k = np.cross(n, bis[k])
-        ref = float(np.dot(nk, t_k))
-        if abs(ref) < 1e-12:
-            ref = float(np.dot(nk, bis[k]))
-        pvals[k] = vals * F
-        pdirs[k] = -nk if ref < 0.0 else nk
-    # Rankine is a point criterion: a group fires where the largest tensile principal stress of one
-    # of its members exceeds the strength (the crack starts at the peak, on the far face of a bent
-    # wall or at the edge of a Hertz contact); the group mean gives the crack's direction (line 16)
-    member_plus = Pi @ sig_plus @ Pi
-    lam = np.linalg.eigvalsh(member_plus)[:, -1] if m else np.zeros(0)
-    peak1 = np.zeros(N)
-    np.maximum.at(peak1, grp, lam)
-    tpn = peak1  # Pa/N; F > 0: ImpactSpec requires speed > 0
-    fired = (cnt > 0) & (wsum > 0.0) & (peak1 * F > sigma_t)
+    ms = alg.member_state(x, volume, G, u, nb, members, owner, nbr, wf, C, E1, nu1, ell, gradient, correction)
+    gr = alg.angular_groups(nb, members, volume, N)
+    Pi = alg.plane_stress(wf.kind, nb.wall, n)
+    gs = alg.group_state(ms, gr, N, F, Pi)
+    pvals, pdirs, peak, fired = alg.rankine_test(ms, gr, gs["tension_per_newton"], n, N, F, sigma_t, Pi)
     tim["stress_ms"] = (clock() - t2) * 1e3
-
-    # 6-8. crack regions, r_outer (Eq. 11), r_inner (U_limit)
+    # 6-8. line 17: r_outer (Eq. 11), r_inner (U_limit), the crack regions
     K = 0.5 * hz.m_eff * impact.speed**2
-    U_tot = float(U_g.sum())
-    scale = min(1.0, K / U_tot) if U_tot > 0.0 else 0.0
-    U_av = U_g * scale
-    S_ref = math.sqrt(3.0) / 4.0 * e_near**2
-    L_body = float(np.sqrt(dist2.max()))
-    r_lo, r_hi = rho, max(L_body, rho)
-    r_out = np.where(fired, np.clip((hz.area / S_ref) * U_av / (Gc * B), r_lo, r_hi), 0.0)
-    A_near = math.sqrt(3.0) * e_near**2
-    u_lim = 0.5 * Gc * A_near / V_near  # each face it frees is half of a crack shared with a neighbour
-    U_rel = float(U_av.sum())
-    r_in = 0.0
-    if U_rel > 0.0:
-        X = (64.0 * math.pi * rho**9 * u_lim / (315.0 * U_rel)) ** (1.0 / 3.0)
-        if X < rho * rho:
-            r_in = math.sqrt(rho * rho - X)
-    sides = np.zeros((N, 3))
-    cracks: list[Crack] = []
-    for k in np.flatnonzero(fired):
-        mk = pdirs[k]
-        side = None
-        if N > 1:
-            for cand_dir in (bis[k], n):
-                s = cand_dir - np.dot(cand_dir, mk) * mk
-                if np.linalg.norm(s) >= SIDE_MIN:
-                    side = s / np.linalg.norm(s)
-                    break
-        if side is not None:
-            sides[k] = side
-        cracks.append(
-            Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, source=f"impact.group{k}")
-        )
+    L_body = float(np.sqrt(nb.dist2.max()))
+    r_out, U_av = alg.crack_radii(gs["energy"], fired, K, hz.area, nb.e_near, Gc, B, nb.rho, L_body)
+    r_in, u_lim = alg.shatter_radius(float(U_av.sum()), nb.rho, Gc, nb.e_near, nb.V_near)
+    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
-    elapsed = (clock() - t0) * 1e3
     return ImpactAnalysis(
-        cracks=cracks,
-        hertz=hz,
-        field=use,
-        E1=E1,
-        nu1=nu1,
-        nearest=nearest,
-        kernel=GP,
-        support_radius=rho,
-        frame=frame,
-        regularisation=ell,
-        plate_thickness=Bf,
-        plate_radius=Lp,
-        body_energy=e_body,
-        depth=depth,
-        particles=members,
-        pairs=int(owner.size),
-        group=grp,
-        theta=theta,
-        bisector=bis,
-        members=cnt,
-        grad_u=g_grad,
-        strain=g_eps,
-        stress=g_sig,
-        tension=T1 * F,
-        principal_stress=pvals,
-        principal_dir=pdirs,
-        tension_per_newton=tpn,
-        energy=U_g,
-        energy_available=U_av,
-        fired=fired,
-        r_outer=r_out,
-        side=sides,
-        r_inner=r_in,
-        u_limit=u_lim,
-        kinetic_energy=K,
-        tensile_strength=sigma_t,
-        elapsed_ms=elapsed,
-        timings=tim,
+        cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,
+        support_radius=nb.rho, frame=nb.frame, regularisation=ell, plate_thickness=wf.plate_thickness,
+        plate_radius=wf.plate_radius, body_energy=wf.body_energy, depth=nb.depth, particles=members,
+        pairs=int(owner.size), group=gr.group, theta=gr.theta, bisector=gr.bisector, members=gr.count,
+        grad_u=gs["grad_u"], strain=gs["strain"], stress=gs["stress"], tension=gs["tension_per_newton"] * F,
+        principal_stress=pvals, principal_dir=pdirs, tension_per_newton=peak, energy=gs["energy"],
+        energy_available=U_av, fired=fired, r_outer=r_out, side=sides, r_inner=r_in, u_limit=u_lim,
+        kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim,
     )
 
 
@@ -819,83 +380,6 @@ def hertz_cone_threshold(material: Material, impact: ImpactSpec) -> float:
     )
 
 
-# ----------------------------------------------------------------------------- several materials
-
-
-@dataclass(frozen=True)
-class MaterialCrossing:
-    """Where a crack region first reaches particles of another material (Sect. 6, Fig. 12)."""
-
-    point: np.ndarray  # (3,) m: the other-material particle's centroid projected onto the crack plane
-    particle: int  # index of that particle
-    material: int  # its material id
-    distance: float  # m: in-plane distance from the crack point
-
-
-def material_crossings(
-    x: np.ndarray,
-    material_id: np.ndarray,
-    crack: Crack,
-    crack_material: int | None = None,
-    band: float | np.ndarray | None = None,
-    directions: int = 8,
-) -> list[MaterialCrossing]:
-    """Points where `crack` reaches particles of another material.
-
-    A particle j is reached when its material differs from the crack's (`crack_material`, default:
-    the material of the particle nearest to crack.point), its centroid lies within `band` (m) of the
-    crack plane (default: the median nearest-neighbour distance of the particles within r_outer of
-    the crack point) and its projection onto the plane lies in the crack region (half-disc or disc,
-    geometry.cutting.in_region). The plane is split into `directions` equal angular sectors around
-    the crack point; the nearest reached particle of each sector is returned, sorted by distance.
-    The World restarts the analysis at these points with the other material's constants and kernel,
-    and stops the crack at the first one (`stop_at_crossings`).
-    """
-    x = np.asarray(x, dtype=np.float64)
-    mid = np.asarray(material_id).reshape(-1)
-    if x.ndim != 2 or x.shape[1] != 3 or mid.shape != (x.shape[0],):
-        raise ConfigError("material_crossings", (np.shape(x), np.shape(mid)), "x (N,3) and material_id (N,)")
-    if x.shape[0] == 0:
-        return []
-    if crack_material is None:
-        crack_material = int(mid[int(np.argmin(((x - crack.point) ** 2).sum(axis=1)))])
-    if band is None:
-        near = np.flatnonzero(((x - crack.point) ** 2).sum(axis=1) <= crack.r_outer**2)
-        if near.size < 2:
-            return []
-        band = float(np.median(cKDTree(x).query(x[near], k=2)[0][:, 1]))
-    dist = signed_distance(crack, x)
-    cand = (mid != crack_material) & (np.abs(dist) <= band) & in_region(crack, x)
-    idx = np.flatnonzero(cand)
-    if idx.size == 0:
-        return []
-    proj = x[idx] - dist[idx, None] * crack.normal
-    q = proj - crack.point
-    r = np.linalg.norm(q, axis=1)
-    helper = np.eye(3)[int(np.argmin(np.abs(crack.normal)))]
-    a1 = helper - np.dot(helper, crack.normal) * crack.normal
-    a1 /= np.linalg.norm(a1)
-    a2 = np.cross(crack.normal, a1)
-    ang = np.mod(np.arctan2(q @ a2, q @ a1), 2.0 * math.pi)
-    sec = np.minimum((ang / (2.0 * math.pi / directions)).astype(np.int64), directions - 1)
-    order = np.lexsort((idx, r, sec))  # per sector: nearest first, ties by index
-    first = order[np.r_[True, sec[order][1:] != sec[order][:-1]]]
-    first = first[np.lexsort((idx[first], r[first]))]
-    return [
-        MaterialCrossing(point=proj[k].copy(), particle=int(idx[k]), material=int(mid[idx[k]]), distance=float(r[k]))
-        for k in first
-    ]
-
-
-def stop_at_crossings(crack: Crack, crossings: list[MaterialCrossing]) -> Crack:
-    """The crack shortened to its first crossing (Sect. 6: a crack stops at another material)."""
-    if not crossings:
-        return crack
-    r = max(min(c.distance for c in crossings), 1e-12)
-    return Crack(point=crack.point, normal=crack.normal, r_outer=min(crack.r_outer, r), side=crack.side,
-                 r_inner=min(crack.r_inner, r), source=crack.source)
-
-
 __all__ = [
     "FIELDS",
     "ImpactAnalysis",
@@ -907,5 +391,6 @@ __all__ = [
     "neighbour_pairs",
     "sph_gradient",
     "stop_at_crossings",
+    "tet_edge",
     "threshold_speed",
 ]

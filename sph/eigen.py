@@ -21,7 +21,7 @@ eigenvectors are the columns of V, orthonormal and right-handed (det V = +1).
 import numpy as np
 import taichi as ti
 
-from sim.runtime import float_eps, numpy_float
+from core.runtime import float_eps, numpy_float
 
 MAX_SWEEPS = 12  # cyclic sweeps at most; quadratic convergence needs 4-6 in f64
 

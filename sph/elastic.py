@@ -25,8 +25,8 @@ gravity = -sum_free m g . (x - x0) (datum: rest positions, so it is 0 at the sta
 import numpy as np
 import taichi as ti
 
-from sim.errors import ConfigError
-from sim.runtime import numpy_float
+from core.errors import ConfigError
+from core.runtime import numpy_float
 from sph.corotated import (
     CorotatedSPH,
     force_at,

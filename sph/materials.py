@@ -6,7 +6,7 @@ Voigt convention (used everywhere in the project):
   stress vector: s = [s_xx, s_yy, s_zz, s_yz, s_xz, s_xy];  s = C e;
   energy density 1/2 eps:sigma = 1/2 e . s;  C_voigt[I, J] = C_ijkl with I <-> ij, J <-> kl.
 
-Constructors (each validates and raises `sim.errors.MaterialError(key_path, value, allowed)`):
+Constructors (each validates and raises `core.errors.MaterialError(key_path, value, allowed)`):
   stiffness_isotropic(E, nu)                     -1 < nu < 1/2, E > 0
   stiffness_transverse(axis, E_axial, E_transverse, nu_transverse, nu_axial, G_axial)
       axis: symmetry axis; nu_transverse = in-plane Poisson ratio (strain in the plane from stress
@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.errors import MaterialError
+from core.errors import MaterialError
 
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # index pairs of Voigt slots 0..5
 _SYM_RTOL = 1e-10  # relative asymmetry accepted in a full 6x6

@@ -31,8 +31,8 @@ z fastest), ids ascending inside a cell; deterministic.
 import numpy as np
 import taichi as ti
 
-from sim.errors import CapacityError
-from sim.runtime import numpy_float
+from core.errors import CapacityError
+from core.runtime import numpy_float
 from sph.kernel import support_extent, support_radius_ti
 
 SCAN_CHUNK = 1024  # entries scanned serially per parallel task

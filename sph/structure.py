@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 from sph.contact import HERTZ_DURATION_CONST, HertzImpact
 
 BEAM_SAMPLES = 2001  # points of the tabulated moment, slope and deflection along the beam

@@ -27,7 +27,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    from sim.runtime import init_taichi
+    from core.runtime import init_taichi
 
     info = init_taichi(arch=config.getoption("--arch"), precision="f64", threads=1)
     config._anisofrac_runtime = info  # type: ignore[attr-defined]

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PROBE = """
 import json, sys
 sys.path.insert(0, {root!r})
-from sim.runtime import init_taichi
+from core.runtime import init_taichi
 init_taichi("cpu", "f64", threads=1)
 import taichi as ti
 from scenes.loader import load_scene

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
-from render.figures import LABEL_PX, PANEL_PX, Figure, Row, make_sheet
+from sim.figures import LABEL_PX, PANEL_PX, Figure, Row, make_sheet
 
 
 def test_sheet_of_a_scripted_cut(tmp_path, taichi_runtime):

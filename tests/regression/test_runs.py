@@ -40,7 +40,7 @@ def test_default_scene_breaks_the_pot_and_writes_its_files(tmp_path):
 
 
 def test_existing_output_folder_is_not_overwritten(tmp_path):
-    from sim.errors import ConfigError
+    from core.errors import ConfigError
 
     (tmp_path / "keep.txt").write_text("mine")
     with pytest.raises(ConfigError, match="--overwrite"):

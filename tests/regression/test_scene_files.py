@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from core.errors import ConfigError
 from scenes.loader import load_scene, scene_from_dict
-from sim.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -90,7 +90,7 @@ def test_missing_mesh_file_is_named_at_build(tmp_path):
 
     text = GOOD.replace('shape = { type = "box", size = [0.1, 0.1, 0.1] }', 'mesh = "missing.obj"\nunits = "mm"')
     cfg = load_scene(str(write(tmp_path, text)))
-    from sim.errors import MeshError
+    from core.errors import MeshError
 
     with pytest.raises(MeshError, match="missing.obj: file not found"):
         World(cfg)

@@ -1,6 +1,6 @@
 """Extreme kernel anisotropy: axis ratios 1, 10 and 100 requested through the scene's kernel table.
 
-What is clamped (sph/kernel.py, sim/config.py): WPCA's own shape (the neighbourhood's standard
+What is clamped (sph/kernel.py, scenes/config.py): WPCA's own shape (the neighbourhood's standard
 deviations) is clamped to a longest/shortest axis ratio of `kernel.max_ratio` (schema: 1 to 20,
 default 4) and its volume kept at that of the isotropic kernel (det G = 1/h^3); `kernel.axis_scale`
 then multiplies the axes without a further clamp, within the schema's 0.01 to 100 per axis. So a
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from scenes.loader import load_scene, scene_from_dict
-from sim.errors import ConfigError
 from sim.guards import check_neighbourhoods
 from sim.world import World
 from sph.kernel import kernel_grad_np, kernel_w_np, kernel_wpca

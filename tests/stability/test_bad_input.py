@@ -9,11 +9,11 @@ import pytest
 import trimesh
 
 import main
+from core.errors import ConfigError, MaterialError, MeshError
 from geometry.build import build_object
 from geometry.mesh_io import load_surface_mesh, load_tet_mesh
+from geometry.surface_checks import check_surface_overlap, winding_numbers
 from scenes.loader import load_scene, scene_from_dict
-from sim.errors import ConfigError, MaterialError, MeshError
-from sim.guards import check_surface_overlap, winding_numbers
 from sim.world import World
 from tests.stability.test_scale_offset import write_obj
 
@@ -49,7 +49,7 @@ def folded_box() -> trimesh.Trimesh:
 
 
 def test_self_intersecting_surfaces_are_refused(tmp_path):
-    """geometry.mesh_io refuses two interpenetrating shells through sim.guards.check_surface_overlap
+    """geometry.mesh_io refuses two interpenetrating shells through geometry.surface_checks.check_surface_overlap
     (winding number 2 in the overlap); without it the overlap would become a hole (ray parity)."""
     path = mesh_file(tmp_path / "two.obj", overlapping_boxes())
     with pytest.raises(MeshError) as info:

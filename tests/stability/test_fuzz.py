@@ -16,8 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from core.errors import SandboxError
 from scenes.loader import scene_from_dict
-from sim.errors import SandboxError
 from sim.world import World
 from tests.stability.test_scale_offset import write_obj
 

@@ -4,7 +4,7 @@ up to which a ball cannot tunnel through a thin pane, and what happens above it.
 
 Momentum accounting (helpers.MomentumLedger): contacts are made frictionless (friction 0 on every
 material and collider, so each contact impulse is normal and reported by contact_events) and the
-heavy-on-light mass scaling is off (it trades momentum for stack stability, rigid/kernels.py). Then
+heavy-on-light mass scaling is off (it trades momentum for stack stability, rigid/solver.py). Then
 per rigid step  dP = sum m g dt + sum of the impulses of colliders and static bodies  (pairs of
 dynamic bodies cancel), and per fracture event  dP = - momentum of the shattered particles taken out
 (their velocity from the parent's field v + w x r).
@@ -168,7 +168,7 @@ def test_larger_ball_does_not_tunnel_at_the_clamp_speed():
 def test_speed_above_the_clamp_is_refused_and_the_solver_clamps():
     """The schema accepts up to 1e3 m/s, but the World refuses a body faster than the rigid solver's
     200 m/s clamp (sim.guards.check_scene); bodies sped up later are clamped in their first substep."""
-    from sim.errors import ConfigError
+    from core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="200 m/s"):
         World(load_scene("glass_r3", ["objects.ball.velocity=[0,0,-500]", 'scene.effects=["rigid"]']))
@@ -231,7 +231,7 @@ def _co_moving_contacts(speed: float) -> tuple[int, int]:
 
 def test_co_moving_bodies_make_few_contacts():
     """Two boxes 1 mm apart moving together at 2 m/s make no more contacts than at rest: the speculative
-    test uses the pair's relative motion (rigid/kernels.py scan_sphere), not both spheres' absolute sweeps
+    test uses the pair's relative motion (rigid/narrow_phase.py scan_sphere), not both spheres' absolute sweeps
     (which made 392 contacts at 2 m/s, every pair at 40 m/s, 1.1 million for the 200 m/s pot's halves)."""
     at_rest, ns = _co_moving_contacts(0.0)
     moving, _ = _co_moving_contacts(2.0)

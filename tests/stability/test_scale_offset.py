@@ -111,7 +111,7 @@ def test_translated_scene_gives_the_same_fragments(files, reference, offset):
 F32_PROBE = """
 import json, sys
 sys.path.insert(0, {root!r})
-from sim.runtime import init_taichi
+from core.runtime import init_taichi
 init_taichi("cpu", "f32", threads=1)
 from tests.stability.test_scale_offset import fragments, slab_scene
 out = {{}}

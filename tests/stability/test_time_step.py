@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from scenes.loader import load_scene
-from sim.errors import ConfigError
 from sim.guards import SimulationError, TimeStepError, check_scene, check_time_step, stable_elastic_dt
 from sim.world import World
 from sph.elastic import ElasticEffect, stable_time_step

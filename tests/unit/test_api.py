@@ -11,9 +11,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 import anisofrac as af
+from core.runtime import float_eps
 from scenes.loader import load_scene, scene_from_dict
 from sim.guards import state_hash
-from sim.runtime import float_eps
 
 G = 9.81  # m/s^2
 PLATE = dict(  # a glass plate on a floor, struck from above (about 600 particles)
@@ -93,6 +93,9 @@ def test_preview_changes_nothing_and_strike_breaks(plate):
     v = 2.0 * pre.threshold_speed
     hot = sim.preview("plate", top, [0.0, -v, 0.0])
     assert hot.fired.all() and len(hot.cracks) == 4 and state_hash(sim.world) == before
+    strength = sim.config.materials[0].tensile_strength
+    assert np.array_equal(hot.fired, hot.peak_tension > strength)  # Rankine on the peak member tension
+    assert pre.peak_tension.max() < strength
     m0 = sim.particles().mass.sum()
     record = sim.strike("plate", top, [0.0, -v, 0.0])
     assert record is not None and record["cracks"] == 4 and sim.events()[-1] is record

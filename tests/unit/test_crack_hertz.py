@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 from sph.contact import (
     HERTZ_DURATION_CONST,
     effective_modulus,

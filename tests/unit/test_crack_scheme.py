@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from geometry.build import build_object
 from geometry.fragments import apply_cracks, fragment_volumes
-from sim.errors import ConfigError
 from sph.contact import hertz_impact, speed_for_force
 from sph.cracks import (
     ImpactSpec,

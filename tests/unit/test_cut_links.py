@@ -7,6 +7,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from core.errors import ConfigError
 from geometry.cutting import (
     Crack,
     remove_crossed_links,
@@ -21,7 +22,6 @@ from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED, ParticleSet, buil
 from geometry.subdivision import SNAP_REL, subdivide
 from geometry.surface import edge_imbalance, fragment_surfaces
 from geometry.tetmesh import TET_FACES, TetMesh
-from sim.errors import ConfigError
 from tests.unit.test_cut_meshes import DENSITY, kuhn_box, particles
 
 SETTINGS = settings(

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from core.errors import ConfigError
 from geometry.cutting import Crack
 from geometry.export import write_fragments, write_mesh
 from geometry.fragments import apply_cracks, fragment_volumes
 from geometry.surface import fragment_surfaces
-from sim.errors import ConfigError
 from tests.unit.test_cut_meshes import kuhn_box, particles
 
 

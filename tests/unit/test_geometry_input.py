@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 import trimesh
 
+from core.errors import ConfigError, MeshError
 from geometry.build import build_object
 from geometry.mesh_io import load_surface_mesh, load_tet_mesh
 from geometry.shapes import Box
 from geometry.tetrahedralize import tetrahedralize
-from sim.errors import ConfigError, MeshError
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 

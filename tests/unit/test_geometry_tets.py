@@ -162,7 +162,7 @@ def test_layered_sampling_puts_vertices_in_layers():
 
 
 def test_resolution_budget_is_refused_with_the_allowed_range():
-    from sim.errors import ConfigError
+    from core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="resolution"):
         tetrahedralize(Box((1.0, 1.0, 1.0)), 1e-4)

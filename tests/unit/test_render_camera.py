@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from render.camera import MIN_PITCH_MARGIN_DEG, Camera
-from sim.errors import ConfigError
 
 CAMERAS = [
     dict(eye=[1.0, 2.0, 3.0], target=[0.0, 0.0, 0.0], fov_deg=45.0, near=0.1, far=100.0),

@@ -1,4 +1,4 @@
-"""Materials that read in frames: looks from the scene file or the material's kind (sim/looks.py),
+"""Materials that read in frames: looks from the scene file or the material's kind (render/looks.py),
 bad looks named in the error, and the faces a crack created drawn in the crack shade (render/session.py)."""
 
 from __future__ import annotations
@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from render.camera import Camera
+from render.looks import DEFAULT_LOOK, material_look
 from render.raster import RasterRenderer
 from render.scene_data import Lighting
 from render.session import SceneView
 from scenes.loader import load_scene
-from sim.errors import ConfigError
-from sim.looks import DEFAULT_LOOK, material_look
 from sim.world import World
 
 SPLIT_BOX = """

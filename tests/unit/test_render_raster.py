@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from geometry.surface import SurfaceMesh
 from render.camera import Camera
 from render.primitives import box_mesh, ground_quad
 from render.raster import RasterRenderer
 from render.scene_data import MIN_CAPACITY, Lighting, MeshPart, RenderScene
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
-from sim.errors import ConfigError
 
 W, H = 160, 120
 AMB, LIGHT = 0.25, 0.75  # ambient + light = 1: a face lit head-on shows its own colour
@@ -290,7 +290,7 @@ def test_copy_from_taichi_fields(scene, raster):
     """Poses and particles copied from Taichi fields (as a rigid store holds them) equal the host upload."""
     import taichi as ti
 
-    from sim.runtime import numpy_float
+    from core.runtime import numpy_float
 
     v, f = box_mesh([0.05, 0.05, 0.05])
     _reset(scene, Lighting())

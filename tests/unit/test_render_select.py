@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 import render.ggui as ggui
+from core.errors import BackendError, ConfigError
 from render.select import RENDERER_KINDS, make_renderer
-from sim.errors import BackendError, ConfigError
 
 
 @pytest.fixture
@@ -45,7 +45,7 @@ def test_ggui_without_vulkan_is_a_one_line_error_and_exit_2(taichi_runtime, vulk
     """Asking for GGUI where Vulkan is missing names the way out (the rasteriser); the command line
     prints one line and exits with status 2, writing nothing."""
     import main
-    from sim.runtime import runtime
+    from core.runtime import runtime
 
     vulkan(False, "no driver (test)")
     with pytest.raises(BackendError, match="raster"):

@@ -8,8 +8,8 @@ import warnings
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from render.writers import GifWriter, Mp4Writer, PngSequenceWriter, make_writer
-from sim.errors import ConfigError
 
 
 def _frames(n: int, w: int, h: int) -> list[np.ndarray]:

@@ -8,12 +8,12 @@ import hashlib
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from geometry.particles import build_particles
 from rigid.bodies import add_box_body, ball_tetmesh, box_tetmesh
 from rigid.mass import mass_properties, static_mass_properties
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
 from rigid.world import RigidConfig, RigidWorld
-from sim.errors import ConfigError
 
 G = 9.81
 DT = 1.0 / 240.0

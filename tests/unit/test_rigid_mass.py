@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.errors import MeshError
 from geometry.particles import build_particles
 from rigid.bodies import ball_tetmesh, box_tetmesh
 from rigid.mass import inertia_floor, mass_properties, tet_second_moments
 from rigid.quat import quat_to_matrix
-from sim.errors import MeshError
 
 EPS = np.finfo(np.float64).eps
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sim.errors import MaterialError
+from core.errors import MaterialError
 from sph.materials import (
     Material,
     energy_density,

@@ -1,17 +1,17 @@
-"""Viewer picking (render/viewer_pick.py) against a box whose answers are known in closed form, the
-`--script` grammar (render/viewer_script.py), and the overlay geometry of kernels and crack discs
-(render/viewer_overlay.py). Pure numpy: no window, no Taichi fields."""
+"""Viewer picking (render/pick.py) against a box whose answers are known in closed form, the
+`--script` grammar (viewer/script.py), and the overlay geometry of kernels and crack discs
+(viewer/overlay.py). Pure numpy: no window, no Taichi fields."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from core.errors import ConfigError
 from render.camera import Camera
+from render.pick import cursor_pixels, pick, ray_cast, ray_triangles
 from render.primitives import box_mesh
-from render.viewer_pick import cursor_pixels, pick, ray_cast, ray_triangles
-from render.viewer_script import parse_script
-from sim.errors import ConfigError
+from viewer.script import parse_script
 
 CENTRE = np.array([1.0, 0.2, -0.5])
 HALF = np.array([0.1, 0.2, 0.3])
@@ -104,8 +104,8 @@ def test_script_grammar():
 def test_kernel_ellipses_lie_on_the_support_surface():
     """Every point of the drawn kernel loops satisfies |G R^T (x - c)| = 1 (the support boundary of Eq. 4
     for a body rotated by R), and the loops reach the three semi-axes."""
-    from render.viewer_overlay import ellipsoid_loops
     from rigid.quat import quat_from_axis_angle, quat_to_matrix
+    from viewer.overlay import ellipsoid_loops
 
     Q = quat_to_matrix(quat_from_axis_angle([0.2, 1.0, -0.4], 0.7))  # kernel axes in the body frame
     h = np.array([0.03, 0.01, 0.02])
@@ -122,7 +122,7 @@ def test_kernel_ellipses_lie_on_the_support_surface():
 
 def test_half_disc_outline():
     """A half-disc outline stays in its plane, within the radius, on its side (the diameter closes it)."""
-    from render.viewer_overlay import half_disc
+    from viewer.overlay import half_disc
 
     p, n, s = np.array([0.1, 0.2, 0.3]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 1.0, 0.0])
     a, b = half_disc(p, n, 0.05, s, segments=40)

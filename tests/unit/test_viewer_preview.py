@@ -1,4 +1,4 @@
-"""The viewer's World actions without a window (render/viewer_world.py, viewer_overlay.py, viewer.py):
+"""The viewer's World actions without a window (viewer/actions.py, overlay.py, app.py):
 the crack preview draws discs for a strike above the analysis' threshold speed and none below, and
 changes nothing; the sliders' kernel tensors reproduce the World's own and stretch the first axis;
 a strike cuts and records an event; a shot ball flies in a straight line; the frame logic runs."""
@@ -10,16 +10,10 @@ import copy
 import numpy as np
 import pytest
 
-from render.viewer_overlay import (
-    MATERIAL_COLOURS,
-    NO_DATA,
-    AnalysisValues,
-    ViewerScene,
-    crack_segments,
-    preview_particles,
-)
-from render.viewer_pick import ray_cast, scene_triangles
-from render.viewer_world import (
+from core.runtime import float_eps
+from render.pick import ray_cast, scene_triangles
+from scenes.loader import scene_from_dict
+from viewer.actions import (
     Tuning,
     ball_bodies,
     kernel_tensors,
@@ -27,8 +21,14 @@ from render.viewer_world import (
     shoot_ball,
     strike,
 )
-from scenes.loader import scene_from_dict
-from sim.runtime import float_eps
+from viewer.overlay import (
+    MATERIAL_COLOURS,
+    NO_DATA,
+    AnalysisValues,
+    ViewerScene,
+    crack_segments,
+    preview_particles,
+)
 
 RES = 0.012  # m: tet size of the test plate (about 1,700 particles)
 PLATE = dict(
@@ -188,8 +188,8 @@ def test_viewer_frames_without_a_window(taichi_runtime):
     """The viewer's frame logic with a script and no window (paused: the rigid step is not compiled): a
     strike at the default aim breaks the plate, the toggles put particles and lines into the scene, and
     a reset rebuilds the World."""
-    from render.viewer import Viewer
-    from render.viewer_script import parse_script
+    from viewer.app import Viewer
+    from viewer.script import parse_script
 
     script = parse_script("pause@0,set@0:speed=30,toggle@0:preview,toggle@0:kernels,hover@0,strike@1,"
                           "toggle@2:particles,toggle@2:links,colour@2:stress,reset@4")

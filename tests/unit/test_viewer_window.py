@@ -17,7 +17,7 @@ import pytest
 from render.camera import Camera
 from render.scene_data import Lighting
 from render.session import FLOOR_COLOR
-from render.viewer_panel import panel_fraction
+from viewer.panel import panel_fraction
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 800, 600

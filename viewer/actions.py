@@ -26,9 +26,9 @@ import numpy as np
 
 # body frames, strikes and previews are the Python API's (anisofrac/strikes.py): the viewer builds on it
 from anisofrac.strikes import Preview, body_frames, breakable, crack_shapes
+from core.errors import ConfigError
 from geometry.particles import build_particles
-from render.viewer_pick import Hit
-from sim.errors import ConfigError
+from render.pick import Hit
 
 STEEL = dict(model="isotropic", E=2.0e11, nu=0.3, density=7800.0, tensile_strength=1.0e9, toughness=1.0e4,
              restitution=0.3, friction=0.4, name="viewer-ball-steel")  # SI units: the shot ball's material
@@ -154,7 +154,8 @@ def shoot_ball(world, origin, direction, speed: float, radius: float | None = No
     """Add a steel ball centred at `origin` (m, world) moving at `speed` (m/s) along `direction`;
     returns its body id. Its particles join world.particles (material: STEEL, not breakable)."""
     from rigid.bodies import add_tet_body, ball_tetmesh
-    from sim.world import BodyInfo, concat_particles
+    from sim.bodies import BodyInfo
+    from sim.world import concat_particles
 
     if "rigid" not in world.stages:
         raise ConfigError("viewer.shoot", world.cfg.scene.name, "a scene with the 'rigid' effect")

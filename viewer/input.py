@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from render.viewer_pick import cursor_pixels
+from render.pick import cursor_pixels
 
 # key (GGUI name) -> command; `docs/viewer.md` lists the same table
 KEY_COMMANDS = {

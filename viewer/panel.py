@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from render.viewer_overlay import COLOUR_MODES
+from viewer.overlay import COLOUR_MODES
 
 PANEL_WIDTH_PX = 330  # px: panel width (capped at PANEL_MAX_FRACTION of the window)
 PANEL_MAX_FRACTION = 0.4
@@ -70,7 +70,7 @@ def _preview(g, v) -> None:
 
 
 def draw_panel(gui, v) -> list[str]:
-    """Declare the panel of viewer `v` (render.viewer.Viewer) for this frame; returns button commands."""
+    """Declare the panel of viewer `v` (viewer.app.Viewer) for this frame; returns button commands."""
     cmds: list[str] = []
     frac = panel_fraction(v.width)
     w = v.world

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 
 def atomic_write_bytes(path: Path, data: bytes) -> None:

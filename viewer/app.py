@@ -4,13 +4,14 @@ tensile strength or the kernel anisotropy, and watch the paper's Table 1 counts 
 
 One window frame:
     input (keys, mouse, panel buttons) -> scripted actions of this frame -> one World frame (unless
-    paused) -> surfaces and poses (render.viewer_overlay.ViewerScene) -> the point under the cursor
-    (render.viewer_pick) -> crack preview (render.viewer_world.preview_strike, throttled) ->
+    paused) -> surfaces and poses (viewer.overlay.ViewerScene) -> the point under the cursor
+    (render.pick) -> crack preview (viewer.actions.preview_strike, throttled) ->
     overlays (particles, links, kernels, crack discs) -> GGUIDrawer + ImGui panel -> screenshot -> show.
 
-The pieces live in render/viewer_input.py (keys, mouse), viewer_panel.py (ImGui), viewer_overlay.py
-(what is drawn over the bodies, colour modes), viewer_pick.py (ray casting), viewer_world.py (what
-is done to the World) and viewer_script.py (`--script`). Controls: docs/viewer.md.
+The pieces live in viewer/input.py (keys, mouse), panel.py (ImGui), overlay.py (what is drawn over
+the bodies, colour modes), actions.py (what is done to the World, through the Python API) and
+script.py (`--script`); ray casting is render/pick.py. The viewer is an application on top of the
+API (anisofrac): it holds a Simulation. Controls: docs/viewer.md.
 """
 
 from __future__ import annotations
@@ -26,9 +27,21 @@ import numpy as np
 
 from anisofrac.simulation import Simulation
 from anisofrac.strikes import body_frames, breakable, to_reference
+from core.errors import BackendError, SandboxError
+from render.pick import Hit, pick, scene_triangles
 from render.session import camera_for, debris_color
-from render.viewer_input import ZOOM_KEY_RATE, MouseState, drag_camera, poll
-from render.viewer_overlay import (
+from viewer.actions import (
+    Tuning,
+    ball_bodies,
+    ball_radius,
+    copy_config,
+    event_cracks,
+    preview_strike,
+    shoot_ball,
+    strike,
+)
+from viewer.input import ZOOM_KEY_RATE, MouseState, drag_camera, poll
+from viewer.overlay import (
     COLOUR_MODES,
     KERNEL_COLOUR,
     LINK_COLOUR,
@@ -40,20 +53,8 @@ from render.viewer_overlay import (
     particle_overlay,
     preview_particles,
 )
-from render.viewer_panel import draw_panel, panel_fraction
-from render.viewer_pick import Hit, pick, scene_triangles
-from render.viewer_script import Action, parse_pixel, parse_script
-from render.viewer_world import (
-    Tuning,
-    ball_bodies,
-    ball_radius,
-    copy_config,
-    event_cracks,
-    preview_strike,
-    shoot_ball,
-    strike,
-)
-from sim.errors import BackendError, SandboxError
+from viewer.panel import draw_panel, panel_fraction
+from viewer.script import Action, parse_pixel, parse_script
 
 BALL_START_RADII = 4.0  # ball radii: a shot ball starts this far in front of the eye (plus the near plane)
 PREVIEW_MOVE_M = 0.003  # m: the preview is recomputed when the hit point moves farther (reference frame)

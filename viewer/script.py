@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 ACTIONS = ("strike", "ball", "hover", "toggle", "colour", "set", "pause", "resume", "step", "reset", "view", "fit",
            "orbit", "zoom", "shot", "quit")

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.errors import BackendError, ConfigError
+from core.errors import BackendError, ConfigError
 
 PRECISIONS = ("f32", "f64")
 ARCHES = ("cpu", "cuda", "auto")
@@ -114,6 +114,11 @@ def init_taichi(
         device = _cpu_name()
     _runtime = RuntimeInfo(arch=arch, precision=precision, threads=threads, device=device)
     return _runtime
+
+
+def ensure_runtime() -> RuntimeInfo:
+    """The running configuration, starting Taichi with the defaults (cpu, f32, 1 thread) if needed."""
+    return _runtime if _runtime is not None else init_taichi()
 
 
 def runtime() -> RuntimeInfo:

@@ -240,7 +240,7 @@ def half_disc(point, normal, radius: float, side, segments: int = LOOP_SEGMENTS)
 
 
 def crack_segments(cracks: list, impact_normal=None):
-    """Segments (a, b, colours) of crack shapes (render.viewer_world.CrackShape): each disc or half-disc
+    """Segments (a, b, colours) of crack shapes (viewer.actions.CrackShape): each disc or half-disc
     with r_outer, its normal (a short red line), and the shatter circle of radius r_inner about the
     impact point in the plane normal to `impact_normal` (or to the first crack's normal)."""
     A, B, C = [], [], []

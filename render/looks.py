@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from sim.errors import ConfigError
+from core.errors import ConfigError
 
 CRACK_MIX = 0.35  # -: a crack face's default shade: base colour mixed this much with CRACK_GREY
 CRACK_GREY = (0.45, 0.43, 0.40)  # -: fresh fracture surfaces scatter light: lighter on dark stone, greyer on white

@@ -1,0 +1,88 @@
+"""Rigid step, stages 1-2 (rigid/step.py): derived per-step data (world inverse inertia, sphere world
+centres, sweep distances, the pose at the step start) and the broad phase, a hashed uniform grid
+(count, serial scan, serial scatter: buckets list sphere ids in increasing order, so the result does
+not depend on thread timing)."""
+
+import taichi as ti
+
+from rigid.kernel_math import (
+    is_active,
+    ivec3,
+    mat3,
+    q_to_mat,
+    vec3,
+)
+
+
+# --------------------------------------------------------------------------- 2. derived data
+@ti.kernel
+def k_derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
+    for b in range(nb):
+        s.body_active[b] = 1 if is_active(s, b) else 0
+        s.body_wake[b] = 0
+        iw = mat3(0.0)
+        if s.body_alive[b] == 1 and s.body_static[b] == 0:
+            r = q_to_mat(s.body_q[b])
+            iw = r @ s.body_inv_inertia[b] @ r.transpose()
+        s.body_inv_inertia_world[b] = iw
+        s.body_x0[b] = s.body_x[b]
+        s.body_r0[b] = q_to_mat(s.body_q[b])
+        s.body_dx[b] = vec3(0.0)
+        s.body_dr[b] = ti.Matrix.identity(float, 3)
+        s.body_pv[b] = vec3(0.0)
+        s.body_pw[b] = vec3(0.0)
+    s.max_reach[None] = 0.0
+    for i in range(ns):
+        b = s.bp_body[i]
+        lx = q_to_mat(s.body_q[b]) @ s.bp_local[i]
+        s.bp_x[i] = s.body_x[b] + lx
+        sw = 0.0
+        disp = vec3(0.0)
+        arc = 0.0
+        if s.body_active[b] == 1:
+            wdt = s.body_w[b].norm() * dt
+            sw = dt * s.body_v[b].norm() + wdt * lx.norm()
+            disp = dt * (s.body_v[b] + s.body_w[b].cross(lx))
+            arc = 0.5 * wdt * wdt * lx.norm()
+        s.bp_sweep[i] = sw
+        s.bp_disp[i] = disp
+        s.bp_arc[i] = arc
+        ti.atomic_max(s.max_reach[None], s.bp_radius[i] + sw)
+
+
+
+# --------------------------------------------------------------------------- 3. broad phase
+@ti.func
+def cell_hash(c, hmask):
+    return ((c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)) & hmask
+
+
+@ti.func
+def cell_size(s: ti.template(), margin):
+    return 2.0 * s.max_reach[None] + margin
+
+
+@ti.kernel
+def k_grid(s: ti.template(), ns: ti.i32, margin: float):
+    hmask = s.grid_size - 1
+    for h in range(s.grid_size):
+        s.grid_count[h] = 0
+        s.grid_fill[h] = 0
+    for i in range(ns):
+        inv = 1.0 / cell_size(s, margin)
+        x = s.bp_x[i] * inv
+        c = ivec3(
+            ti.cast(ti.floor(x[0]), ti.i32), ti.cast(ti.floor(x[1]), ti.i32), ti.cast(ti.floor(x[2]), ti.i32)
+        )
+        s.bp_cell[i] = c
+        h = cell_hash(c, hmask)
+        s.bp_hash[i] = h
+        ti.atomic_add(s.grid_count[h], 1)
+    ti.loop_config(serialize=True)
+    for h in range(s.grid_size):
+        s.grid_start[h + 1] = s.grid_start[h] + s.grid_count[h]
+    ti.loop_config(serialize=True)
+    for i in range(ns):
+        h = s.bp_hash[i]
+        s.grid_entry[s.grid_start[h] + s.grid_fill[h]] = i
+        s.grid_fill[h] += 1

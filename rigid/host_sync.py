@@ -1,0 +1,162 @@
+"""Host <-> store copies of the rigid world (rigid/world.py): the body table, spheres, colliders and the
+warm-start contacts, each uploaded or downloaded by one kernel of rigid/transfers.py. A mixin of
+RigidWorld: it reads the world's host mirror (`_hb`, sphere and collider lists) and its store `_s`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.runtime import numpy_float
+from rigid import transfers
+from rigid.records import BodyState
+
+
+class HostSync:
+    """Copies between the host mirror and the Taichi store (used by RigidWorld only)."""
+
+    def _download_bodies(self, n: int) -> BodyState:
+        fdt = numpy_float()
+        m = max(n, 1)
+        x = np.zeros((m, 3), fdt)
+        q = np.zeros((m, 4), fdt)
+        v = np.zeros((m, 3), fdt)
+        w = np.zeros((m, 3), fdt)
+        asleep = np.zeros(m, np.int32)
+        st = np.zeros(m, fdt)
+        alive = np.zeros(m, np.int32)
+        if n > 0:
+            transfers.k_download_bodies(self._s, n, x, q, v, w, asleep, st, alive)
+        st_ = BodyState(
+            x=x[:n].astype(np.float64),
+            q=q[:n].astype(np.float64),
+            v=v[:n].astype(np.float64),
+            w=w[:n].astype(np.float64),
+            asleep=asleep[:n].astype(bool),
+            alive=alive[:n].astype(bool),
+            sleep_time=st[:n].astype(np.float64),
+        )
+        return st_
+
+    def _upload_bodies(self, start: int, n: int, state: BodyState, offset: int = 0) -> None:
+        """Write bodies [start, start + n) from the host mirror and `state` rows [offset, offset + n)."""
+        if n == 0:
+            return
+        fdt = numpy_float()
+        hb = self._hb
+        sl = slice(start, start + n)
+        ss = slice(offset, offset + n)
+
+        def arr(lst, dt=fdt):
+            return np.ascontiguousarray(np.asarray(lst[sl], dtype=np.float64).astype(dt))
+
+        sleep_time = state.sleep_time if state.sleep_time is not None else np.zeros(len(state.x))
+        transfers.k_upload_bodies(
+            self._s,
+            start,
+            n,
+            arr(hb.inv_mass),
+            arr(hb.ref_com),
+            arr(hb.inv_inertia),
+            arr(hb.principal_q),
+            arr(hb.inv_principal),
+            arr(hb.restitution),
+            arr(hb.friction),
+            arr(hb.static, np.int32),
+            np.ascontiguousarray(state.alive[ss].astype(np.int32)),
+            np.ascontiguousarray(state.x[ss].astype(fdt)),
+            np.ascontiguousarray(state.q[ss].astype(fdt)),
+            np.ascontiguousarray(state.v[ss].astype(fdt)),
+            np.ascontiguousarray(state.w[ss].astype(fdt)),
+            np.ascontiguousarray(state.asleep[ss].astype(np.int32)),
+            np.ascontiguousarray(np.asarray(sleep_time[ss]).astype(fdt)),
+        )
+
+    def _upload_spheres(self, start: int, n: int) -> None:
+        if n == 0:
+            return
+        fdt = numpy_float()
+        sl = slice(start, start + n)
+        transfers.k_upload_spheres(
+            self._s,
+            start,
+            n,
+            np.ascontiguousarray(self._sph_local[sl].astype(fdt)),
+            np.ascontiguousarray(self._sph_radius[sl].astype(fdt)),
+            np.ascontiguousarray(self._sph_body[sl]),
+        )
+
+    def _upload_colliders(self, start: int, n: int) -> None:
+        if n == 0:
+            return
+        fdt = numpy_float()
+        c = self._col
+        sl = slice(start, start + n)
+
+        def arr(key, dt=fdt):
+            return np.ascontiguousarray(np.asarray(c[key][sl], dtype=np.float64).astype(dt))
+
+        transfers.k_upload_colliders(
+            self._s,
+            start,
+            n,
+            arr("kind", np.int32),
+            arr("x"),
+            arr("q"),
+            arr("n"),
+            arr("half"),
+            arr("restitution"),
+            arr("friction"),
+        )
+
+    def _download_prev(self):
+        """(pc_b, pc_ln, pc_lt, pc_start, valid) of the previous step's contacts."""
+        fdt = numpy_float()
+        nc, ns = self._nc, self._ns
+        pb = np.zeros(max(nc, 1), np.int32)
+        pln = np.zeros(max(nc, 1), fdt)
+        plt = np.zeros((max(nc, 1), 3), fdt)
+        pstart = np.zeros(ns + 1, np.int32)
+        valid = int(self._s.pc_valid[None])
+        if valid:
+            transfers.k_download_prev(self._s, nc, ns, pb, pln, plt, pstart)
+        return pb[:nc], pln[:nc], plt[:nc], pstart, valid
+
+    def _upload_prev(self, pb, pln, plt, pstart, valid) -> None:
+        fdt = numpy_float()
+        nc = len(pb)
+        ns = len(pstart) - 1
+        if nc > self._s.cap_contacts:  # only when shrinking, which never happens
+            valid = 0
+            nc = 0
+        transfers.k_upload_prev(
+            self._s,
+            nc,
+            ns,
+            np.ascontiguousarray(np.r_[pb, 0].astype(np.int32)),
+            np.ascontiguousarray(np.r_[pln, 0].astype(fdt)),
+            np.ascontiguousarray(np.concatenate([plt, np.zeros((1, 3))]).astype(fdt)),
+            np.ascontiguousarray(pstart.astype(np.int32)),
+            int(valid),
+        )
+        self._nc = nc
+
+    def _remap_prev(self, prev, old_to_new: np.ndarray, new_ns: int) -> None:
+        """Renumber the warm-start contacts `prev` (from `_download_prev` before the change) after
+        spheres were added or removed (old_to_new[i] = -1 for a removed sphere)."""
+        pb, pln, plt, pstart, valid = prev
+        if not valid or len(pb) == 0:
+            self._upload_prev(pb[:0], pln[:0], plt[:0], np.zeros(new_ns + 1, np.int32), 0)
+            return
+        counts = np.diff(pstart)
+        a_old = np.repeat(np.arange(len(counts)), counts)
+        a_new = old_to_new[a_old]
+        b_new = np.where(pb >= 0, old_to_new[np.maximum(pb, 0)], pb)
+        keep = (a_new >= 0) & ((pb < 0) | (b_new >= 0))
+        a_new, b_new, pln, plt = a_new[keep], b_new[keep], pln[keep], plt[keep]
+        order = np.lexsort((b_new, a_new))
+        a_new, b_new, pln, plt = a_new[order], b_new[order], pln[order], plt[order]
+        start = np.zeros(new_ns + 1, np.int64)
+        np.cumsum(np.bincount(a_new, minlength=new_ns), out=start[1:])
+        self._upload_prev(b_new, pln, plt, start, 1)
+
+    # ------------------------------------------------------------------ building

@@ -1,0 +1,151 @@
+"""Plain records of the rigid world: its parameters (RigidConfig), a host copy of every body's pose and
+velocity (BodyState), and the contacts of the last step (ContactEvents). SI units throughout."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from core.errors import ConfigError
+
+
+@dataclass
+class RigidConfig:
+    """Solver parameters (SI units). Defaults suit objects of 1 cm to 1 m at dt = 1/240 s."""
+
+    gravity: tuple = (0.0, -9.81, 0.0)  # m/s^2
+    substeps: int = 8  # -: solver substeps per step (contacts are found once per step)
+    velocity_iterations: int = 4  # -: sequential-impulse passes per substep (even: symmetric sweeps)
+    restitution_iterations: int = 2  # -: restitution passes per step
+    position_iterations: int = 4  # -: split-impulse passes per step (even: symmetric sweeps)
+    restitution_threshold_mps: float = 0.5  # m/s: closing speeds below this never bounce
+    linear_slop_m: float = 2.0e-5  # m: penetration left uncorrected (keeps resting contacts warm)
+    position_correction_rate: float = 0.2  # -: fraction of the penetration removed per step
+    max_correction_speed_mps: float = 1.0  # m/s: cap of the pseudo velocity of the position correction
+    speculative_margin_m: float = 2.0e-3  # m: contacts are created this far before touching
+    linear_damping_per_s: float = 0.0  # 1/s: v <- v / (1 + c dt)
+    angular_damping_per_s: float = 0.0  # 1/s: w <- w / (1 + c dt)
+    max_speed_mps: float = 200.0  # m/s: linear speed clamp
+    max_rotation_per_step_rad: float = 0.25 * math.pi  # rad: |w| dt clamp
+    mass_ratio_cap: float = 4.0  # -: heavy-on-light contacts are solved as if at most this ratio (0 = off)
+    max_support_levels: int = 64  # -: stack depth up to which support levels are computed
+    warm_start: bool = True  # reuse last step's impulses of contacts matched by (sphere, sphere) key
+    warm_start_factor: float = 1.0  # -: fraction of the previous impulse reused
+    sleep_enabled: bool = True
+    sleep_linear_speed_mps: float = 0.05  # m/s: below this (and the angular one) a body may sleep
+    sleep_angular_speed_radps: float = 0.1  # rad/s
+    time_to_sleep_s: float = 0.5  # s: an island sleeps after every body was slow this long
+
+    _RANGES = {
+        "substeps": (1, 64),
+        "velocity_iterations": (1, 1000),
+        "restitution_iterations": (0, 100),
+        "position_iterations": (0, 1000),
+        "restitution_threshold_mps": (0.0, 1e3),
+        "linear_slop_m": (0.0, 1.0),
+        "position_correction_rate": (0.0, 1.0),
+        "max_correction_speed_mps": (0.0, 1e3),
+        "speculative_margin_m": (0.0, 10.0),
+        "linear_damping_per_s": (0.0, 1e6),
+        "angular_damping_per_s": (0.0, 1e6),
+        "max_speed_mps": (1e-6, 1e6),
+        "max_rotation_per_step_rad": (1e-6, math.pi),
+        "warm_start_factor": (0.0, 1.0),
+        "max_support_levels": (0, 100000),
+        "mass_ratio_cap": (0.0, 1e12),
+        "sleep_linear_speed_mps": (0.0, 1e3),
+        "sleep_angular_speed_radps": (0.0, 1e3),
+        "time_to_sleep_s": (0.0, 1e6),
+    }
+
+    def validate(self) -> None:
+        """Raise ConfigError naming the key, its value and the allowed range."""
+        g = tuple(self.gravity)
+        if len(g) != 3 or not all(math.isfinite(float(c)) for c in g):
+            raise ConfigError("rigid.gravity", self.gravity, "three finite numbers (m/s^2)")
+        for f in fields(self):
+            if f.name in self._RANGES:
+                lo, hi = self._RANGES[f.name]
+                val = getattr(self, f.name)
+                if not (isinstance(val, (int, float)) and math.isfinite(val) and lo <= val <= hi):
+                    raise ConfigError(f"rigid.{f.name}", val, f"[{lo}, {hi}]")
+
+
+@dataclass
+class BodyState:
+    """Pose and velocity of all bodies (index = body id), numpy copies."""
+
+    x: np.ndarray  # (NB, 3) m: COM world position
+    q: np.ndarray  # (NB, 4) -: w-x-y-z
+    v: np.ndarray  # (NB, 3) m/s
+    w: np.ndarray  # (NB, 3) rad/s, world frame
+    asleep: np.ndarray  # (NB,) bool
+    alive: np.ndarray  # (NB,) bool
+    sleep_time: np.ndarray | None = None  # (NB,) s: time spent below the sleep speeds
+
+
+@dataclass
+class ContactEvents:
+    """Contacts of the last step, one row per (sphere, sphere) or (sphere, collider) contact.
+
+    body_b is -1 for a static collider (then `collider` names it; otherwise collider = -1). The
+    normal points from B towards A; `normal_impulse` (N s) is the total impulse the step applied
+    (velocity and restitution passes, not the position correction); `normal_speed` (m/s) is the
+    relative normal velocity of A with respect to B before the solve (negative = closing).
+    """
+
+    body_a: np.ndarray  # (C,) int
+    body_b: np.ndarray  # (C,) int
+    sphere_a: np.ndarray  # (C,) int
+    sphere_b: np.ndarray  # (C,) int: -1 for a collider
+    collider: np.ndarray  # (C,) int: -1 for a sphere-sphere contact
+    point: np.ndarray  # (C, 3) m
+    normal: np.ndarray  # (C, 3) -
+    normal_impulse: np.ndarray  # (C,) N s
+    normal_speed: np.ndarray  # (C,) m/s
+    separation: np.ndarray  # (C,) m: gap at the step start (negative = penetration)
+
+    def __len__(self) -> int:
+        return len(self.body_a)
+
+    def touching(self) -> ContactEvents:
+        """Only the contacts that carried impulse."""
+        return self._select(self.normal_impulse > 0.0)
+
+    def _select(self, mask: np.ndarray) -> ContactEvents:
+        return ContactEvents(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
+
+    def by_body_pair(self) -> dict:
+        """Impacts summed per body pair: arrays body_a, body_b, impulse (N s, summed), speed (m/s, most
+        negative pre-solve normal speed), point (impulse-weighted mean), normal (impulse-weighted,
+        normalised). Only contacts with impulse > 0 count."""
+        ev = self.touching()
+        if len(ev) == 0:
+            z = np.zeros(0)
+            return dict(
+                body_a=z.astype(int),
+                body_b=z.astype(int),
+                impulse=z,
+                speed=z,
+                point=np.zeros((0, 3)),
+                normal=np.zeros((0, 3)),
+            )
+        pairs = np.stack([ev.body_a, ev.body_b], 1)
+        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
+        inv = inv.ravel()
+        m = len(uniq)
+        imp = np.bincount(inv, weights=ev.normal_impulse, minlength=m)
+        speed = np.full(m, np.inf)
+        np.minimum.at(speed, inv, ev.normal_speed)
+        pt = np.stack(
+            [np.bincount(inv, weights=ev.normal_impulse * ev.point[:, k], minlength=m) for k in range(3)], 1
+        )
+        nr = np.stack(
+            [np.bincount(inv, weights=ev.normal_impulse * ev.normal[:, k], minlength=m) for k in range(3)], 1
+        )
+        nr /= np.maximum(np.linalg.norm(nr, axis=1, keepdims=True), 1e-300)
+        return dict(
+            body_a=uniq[:, 0], body_b=uniq[:, 1], impulse=imp, speed=speed, point=pt / imp[:, None], normal=nr
+        )

@@ -1,0 +1,374 @@
+"""The steps of the paper's Algorithm 1 (Sect. 4.2, Fig. 2), each named after what the paper calls
+it; `sph.cracks.analyse_impact` runs them in order. The module docstring of sph/cracks.py explains
+each step, the equations and the documented departures from the paper. Host numpy, float64,
+vectorised over the analysed neighbourhood (tens to a few hundred particles).
+
+    neighbourhood      lines 1-6   G_P of the particle nearest to P, the analysed set N_p, the wall under P
+    wall_field         line 7      which contact field the struck wall carries (half-space, plate, beam)
+    swept_members      lines 1-6   N_p swept through a wall that bends (its far-side tension is seen)
+    displacement       line 7      the contact displacement on the members and their SPH neighbours
+    member_state       13-14       per member: grad u (Eq. 7), strain (Eq. 1), stress, energy (Eq. 8)
+    angular_groups     10-11       N sectors about the normal (a documented departure: radial cracks)
+    group_state        13-14       per group: weighted means of grad u, strain, stress, tension; energy
+    rankine_test       15-16       which groups fire (point criterion) and their crack normals
+    crack_radii        17 (Eq. 11) r_outer from the group energy and the contact area
+    shatter_radius     17          r_inner where the released energy exceeds U_limit
+    crack_regions      output      the half-disc crack of each fired group
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import ConfigError
+from geometry.cutting import Crack
+from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
+from sph.eigen import sym_eig3_np
+from sph.gradient import neighbour_pairs, sph_gradient
+from sph.materials import strain_to_voigt, stress_from_voigt
+from sph.struck_wall import SLENDER_WIDTH, E_along, StruckWall, struck_wall
+from sph.structure import plate_energy
+
+SIDE_MIN = 0.1  # |side projection| below which the side falls back (angle to the normal < ~6 deg)
+ISO_TOL = 1e-6  # relative difference of in-plane kernel lengths below which G_P has no in-plane axis
+
+
+def tet_edge(volume: float) -> float:
+    """Edge (m) of the regular tet of this volume (m^3)."""
+    return float(np.cbrt(6.0 * math.sqrt(2.0) * volume))
+
+
+def reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | None) -> np.ndarray:
+    """e1 of the analysis frame (module doc of sph/cracks.py, step 4): the given reference, else the
+    longest in-plane axis of G_P, else the coordinate axis least aligned with n; sign made positive."""
+    if reference is not None:
+        e1 = reference - np.dot(reference, n) * n
+    else:
+        axes = np.eye(3)
+        helper = axes[int(np.argmin(np.abs(n)))]  # least aligned with n (argmin: lowest index on ties)
+        t1 = helper - np.dot(helper, n) * n
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(n, t1)
+        T = np.stack([t1, t2])
+        G2 = GP @ GP
+        block = T @ G2 @ T.T  # in-plane section of the support: |G r|^2 = r^T G^2 r
+        w, v = np.linalg.eigh(block)
+        if w[1] - w[0] > ISO_TOL * w[1]:
+            e1 = T.T @ v[:, 0]  # smallest eigenvalue: the longest in-plane axis
+        else:
+            e1 = t1
+    e1 = e1 / np.linalg.norm(e1)
+    k = int(np.argmax(np.abs(e1) - 1e-12 * np.arange(3)))
+    return -e1 if e1[k] < 0.0 else e1
+
+
+@dataclass
+class Neighbourhood:
+    """Algorithm 1, lines 1-6: the analysed set N_p around P and the wall under P."""
+
+    d: np.ndarray  # (N,3) m: x - P of every particle
+    dist2: np.ndarray  # (N,) m^2: |x - P|^2
+    depth_all: np.ndarray  # (N,) m: (x - P) . n
+    nearest: int  # the particle nearest to P
+    kernel: np.ndarray  # (3,3) 1/m: G_P
+    rho: float  # m: support radius of G_P
+    members: np.ndarray  # (M,) int: N_p
+    frame: np.ndarray  # (3,3): rows e1, e2, n
+    V_near: float  # m^3: volume of the nearest particle
+    r_near: float  # m: radius of its volume sphere
+    e_near: float  # m: its regular-tet edge
+    depth: float  # m: d_n, depth of the struck wall below P
+    z_far: float  # m: centroid depth of the wall's far layer
+    z_mid: float  # m: depth of the wall's mid-surface
+    wall: StruckWall
+
+
+def neighbourhood(x: np.ndarray, volume: np.ndarray, G: np.ndarray, P: np.ndarray, n: np.ndarray,
+                  reference: np.ndarray | None) -> Neighbourhood:
+    """Lines 1-6: the kernel G_P of the particle nearest to P, the members |G_P (x - P)| < 1, and the
+    depth of the wall under P (the column within one tet edge of the normal line, down to its first
+    gap wider than two tet edges: a hollow body's far wall is not part of the struck wall)."""
+    d = x - P
+    dist2 = np.einsum("ij,ij->i", d, d)
+    nearest = int(np.argmin(dist2))
+    GP = np.array(G[nearest])
+    if np.linalg.eigvalsh(GP)[0] <= 0.0:
+        raise ConfigError(f"analyse_impact.G[{nearest}]", GP.tolist(), "symmetric positive definite")
+    rho = float(1.0 / np.linalg.eigvalsh(GP)[0])
+    cand = np.flatnonzero(dist2 < rho * rho * (1.0 + 1e-12))
+    qP = np.linalg.norm(d[cand] @ GP.T, axis=1)
+    members = cand[qP < 1.0]
+    e1 = reference_direction(GP, n, reference)
+    frame = np.stack([e1, np.cross(n, e1), n])
+    V_near = float(volume[nearest])
+    r_near = float(np.cbrt(3.0 * V_near / (4.0 * math.pi)))
+    depth_all = d @ n
+    inplane2 = np.maximum(dist2 - depth_all * depth_all, 0.0)
+    e_near = tet_edge(V_near)
+    col = np.flatnonzero((inplane2 < e_near * e_near) & (depth_all >= -r_near))
+    z_mid = 0.0
+    if col.size:
+        order_z = np.argsort(depth_all[col], kind="stable")
+        zc = depth_all[col][order_z]
+        ec = np.cbrt(6.0 * math.sqrt(2.0) * volume[col][order_z])  # tet edges of the column
+        gaps = np.flatnonzero(np.diff(zc) > 2.0 * np.maximum(ec[:-1], ec[1:]))
+        z_far = float(zc[gaps[0]] if gaps.size else zc[-1])
+        depth = z_far + r_near
+        z_mid = 0.5 * (float(zc[0]) + z_far)  # mid-surface of the struck wall (centroid depths)
+    else:
+        depth, z_far = r_near, 0.0
+    depth = max(depth, r_near)
+    wall = struck_wall(d, depth_all, volume, n, z_far, e_near)
+    return Neighbourhood(d, dist2, depth_all, nearest, GP, rho, members, frame, V_near, r_near, e_near, depth,
+                         z_far, z_mid, wall)
+
+
+@dataclass
+class WallField:
+    """Line 7's contact field: which model the struck wall carries and its parameters."""
+
+    kind: str  # 'halfspace', 'plate' or 'beam'
+    plate_thickness: float  # m: B_f (0 unless a plate)
+    plate_radius: float  # m: support radius L of the plate (0 unless a plate)
+    z_shift: np.ndarray  # (3,) m: plate coordinates zeta = z - z_mid
+    body_energy: float  # J/N^2: the wall's compliance E_1, in series with Hertz (0: rigid backing)
+    beam: object  # sph.structure.Beam or None
+
+
+def wall_field(nb: Neighbourhood, field: str, B: float, E1: float, nu1: float, C: np.ndarray, m1: float,
+               held: bool) -> WallField:
+    """Step 3 of the module doc: the field the wall carries ('auto': from the StruckWall) and its
+    compliance. A plate's thickness is min(B, d_n), its support radius that of a disc of the wall's
+    mid-surface area (at least 2 rho_P); a beam's axial modulus comes from the full stiffness."""
+    use = nb.wall.kind(nb.depth) if field == "auto" else field
+    Bf = min(B, nb.depth) if use == "plate" else 0.0
+    z_shift = np.array([0.0, 0.0, nb.z_mid - 0.5 * Bf])
+    Lp, e_body, beam = 0.0, 0.0, None
+    if use == "plate":
+        Lp = max(math.sqrt(nb.wall.volume / (math.pi * Bf)), 2.0 * nb.rho)
+        e_body = plate_energy(E1, nu1, Bf, Lp)
+    elif use == "beam":
+        beam = nb.wall.beam(E_along(C, nb.wall.axis), nu1, m1, held, nb.e_near)
+        e_body = beam.energy()
+    return WallField(use, Bf, Lp, z_shift, e_body, beam)
+
+
+def swept_members(nb: Neighbourhood, n: np.ndarray) -> np.ndarray:
+    """Lines 1-6 for a wall that bends: G_P's kernel swept from P through the wall to its far face,
+    so that the bending tension on the far side is in the analysed set."""
+    t_ax = np.clip(nb.depth_all, 0.0, nb.z_far)
+    reach_c = nb.rho + nb.z_far
+    cand = np.flatnonzero(nb.dist2 < reach_c * reach_c * (1.0 + 1e-12))
+    off = nb.d[cand] - t_ax[cand, None] * n
+    return cand[np.linalg.norm(off @ nb.kernel.T, axis=1) < 1.0]
+
+
+def _field_displacement(wf: WallField, wall: StruckWall, d: np.ndarray, frame: np.ndarray, E1: float,
+                        nu1: float, ell: float) -> np.ndarray:
+    """(K,3) m/N: the contact field's displacement at offsets d from P, reference frame."""
+    loc = d @ frame.T
+    if wf.kind == "beam":
+        u_loc = wf.beam.displacement(wall.local(d)) @ wall.frame @ frame.T
+    elif wf.kind == "plate":
+        u_loc = plate_displacement(loc - wf.z_shift, 1.0, E1, nu1, wf.plate_thickness, wf.plate_radius, ell)
+    else:
+        u_loc = boussinesq_displacement(loc, 1.0, E1, nu1, ell)
+    return u_loc @ frame  # local (e1, e2, n) components -> reference frame
+
+
+def _field_gradient(wf: WallField, wall: StruckWall, d: np.ndarray, frame: np.ndarray, E1: float, nu1: float,
+                    ell: float) -> np.ndarray:
+    """(M,3,3) 1/N: the contact field's exact displacement gradient at offsets d (the reference)."""
+    if wf.kind == "beam":
+        return np.einsum("ai,mab,bj->mij", wall.frame, wf.beam.gradient(wall.local(d)), wall.frame)
+    lm = d @ frame.T
+    if wf.kind == "plate":
+        g = plate_gradient(lm - wf.z_shift, 1.0, E1, nu1, wf.plate_thickness, wf.plate_radius, ell)
+    else:
+        g = boussinesq_gradient(lm, 1.0, E1, nu1, ell)
+    return np.einsum("ai,mab,bj->mij", frame, g, frame)
+
+
+def displacement(x: np.ndarray, G: np.ndarray, nb: Neighbourhood, members: np.ndarray, wf: WallField, E1: float,
+                 nu1: float, ell: float, gradient: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Line 7 ("virtual particles"): every member and every SPH neighbour of a member gets the
+    contact displacement at unit force. Returns (u (N,3) m/N, pair owner, pair neighbour)."""
+    if members.size and gradient == "sph":
+        Gm_rho = 1.0 / np.linalg.eigvalsh(G[members])[:, 0]
+        reach = float(np.sqrt(nb.dist2[members].max())) + float(Gm_rho.max())
+        local = np.flatnonzero(nb.dist2 < reach * reach * (1.0 + 1e-12))
+        owner, nbr = neighbour_pairs(x, G, members, local)
+        need = np.union1d(members, nbr)
+    else:
+        owner = nbr = np.zeros(0, dtype=np.int64)
+        need = members
+    u = np.zeros((x.shape[0], 3))
+    if need.size:
+        u[need] = _field_displacement(wf, nb.wall, nb.d[need], nb.frame, E1, nu1, ell)
+    return u, owner, nbr
+
+
+def tensile_part(sig: np.ndarray) -> np.ndarray:
+    """(M,3,3) sigma^+ = sum_k max(s_k, 0) v_k v_k^T (LAPACK eigh, vectorised; exact for symmetric input)."""
+    if sig.shape[0] == 0:
+        return sig.copy()
+    w, v = np.linalg.eigh(sig)
+    return np.einsum("mik,mk,mjk->mij", v, np.maximum(w, 0.0), v)
+
+
+@dataclass
+class MemberState:
+    """Lines 13-14 per member, at unit force (N = 1)."""
+
+    grad: np.ndarray  # (M,3,3) 1/N: displacement gradient (Eq. 7)
+    strain: np.ndarray  # (M,3,3) 1/N: small strain (Eq. 1)
+    stress: np.ndarray  # (M,3,3) Pa/N: C eps
+    tension: np.ndarray  # (M,3,3) Pa/N: tensile part sigma^+
+    energy: np.ndarray  # (M,) J/N^2: U_i = V_i/2 eps : sigma (Eq. 8)
+
+
+def member_state(x, volume, G, u, nb: Neighbourhood, members, owner, nbr, wf: WallField, C, E1, nu1, ell,
+                 gradient: str, correction: int) -> MemberState:
+    """Eq. 7 (on the particles, or the field's exact gradient), Eq. 1 and Eq. 8 at every member."""
+    if gradient == "sph":
+        grad, _ = sph_gradient(x, volume, G, u, members, owner, nbr, correction)
+    else:
+        grad = _field_gradient(wf, nb.wall, nb.d[members], nb.frame, E1, nu1, ell)
+    eps = 0.5 * (grad + np.swapaxes(grad, 1, 2))
+    ev = strain_to_voigt(eps)
+    sv = ev @ C.T
+    sig = stress_from_voigt(sv)
+    energy = 0.5 * volume[members] * np.einsum("mi,mi->m", ev, sv)
+    return MemberState(grad, eps, sig, tensile_part(sig), energy)
+
+
+@dataclass
+class Groups:
+    """Lines 10-11: member i in sector k about n, centred on the bisector b_k."""
+
+    theta: np.ndarray  # (M,) rad: angle of (x_i - P) about n from e1
+    group: np.ndarray  # (M,) int
+    weight: np.ndarray  # (M,) m^3: V_i cos^2(theta_i - theta_k), members near the bisector count most
+    weight_sum: np.ndarray  # (N,) m^3
+    count: np.ndarray  # (N,) int: members per group
+    angle: np.ndarray  # (N,) rad: bisector angles
+    bisector: np.ndarray  # (N,3)
+
+
+def angular_groups(nb: Neighbourhood, members: np.ndarray, volume: np.ndarray, N: int) -> Groups:
+    """Lines 10-11 as sectors: k = floor(((theta_i + pi/N) mod 2 pi) / (2 pi/N))."""
+    ang = 2.0 * math.pi * np.arange(N) / N
+    bis = np.cos(ang)[:, None] * nb.frame[0] + np.sin(ang)[:, None] * nb.frame[1]
+    lm = nb.d[members] @ nb.frame.T
+    theta = np.arctan2(lm[:, 1], lm[:, 0]) if members.size else np.zeros(0)
+    sector = 2.0 * math.pi / N
+    grp = (np.floor(np.mod(theta + 0.5 * sector, 2.0 * math.pi) / sector).astype(np.int64)) % N
+    w = volume[members] * np.cos(theta - ang[grp]) ** 2
+    wsum = np.bincount(grp, weights=w, minlength=N)
+    cnt = np.bincount(grp, minlength=N)
+    return Groups(theta, grp, w, wsum, cnt, ang, bis)
+
+
+def plane_stress(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray:
+    """(3,3) projector onto the loaded directions where the wall is thin: across a plate (n), or
+    across a thin body struck on its edge (its thin in-plane axis); the identity otherwise."""
+    if kind == "plate":  # thin-plate theory (sigma_iz = 0); drops the out-of-plane noise too
+        return np.eye(3) - np.outer(n, n)
+    if kind == "halfspace" and wall.width < SLENDER_WIDTH * wall.length:
+        return np.eye(3) - np.outer(wall.frame[1], wall.frame[1])
+    return np.eye(3)
+
+
+def group_state(ms: MemberState, gr: Groups, N: int, F: float, Pi: np.ndarray) -> dict:
+    """Lines 13-14 per group: the weighted means of grad u, strain, stress (at force F) and of the
+    tensile stress per newton T_g (plane stress applied), and U_g = sum of the members' energies."""
+    m = gr.group.size
+    safe = np.where(gr.weight_sum > 0.0, gr.weight_sum, 1.0)
+
+    def gmean(a: np.ndarray) -> np.ndarray:
+        flat = (gr.weight[:, None, None] * a).reshape(m, 9)
+        sums = np.stack([np.bincount(gr.group, weights=flat[:, c], minlength=N) for c in range(9)], axis=1)
+        return sums.reshape(N, 3, 3) / safe[:, None, None]
+
+    energy = np.bincount(gr.group, weights=ms.energy, minlength=N) * F * F if m else np.zeros(N)
+    return dict(grad_u=gmean(ms.grad) * F, strain=gmean(ms.strain) * F, stress=gmean(ms.stress) * F,
+                tension_per_newton=Pi @ gmean(ms.tension) @ Pi, energy=energy)
+
+
+def rankine_test(ms: MemberState, gr: Groups, T1: np.ndarray, n: np.ndarray, N: int, F: float, sigma_t: float,
+                 Pi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Lines 15-16: a group fires where the largest tensile principal stress of one of its members
+    exceeds the strength (the crack starts at the peak); its crack normal is the eigenvector of the
+    largest principal value of the group's mean tension T_g. Returns (principal values (N,3) Pa,
+    normals (N,3), peak member tension per newton (N,) Pa/N, fired (N,))."""
+    pvals = np.zeros((N, 3))
+    pdirs = np.zeros((N, 3))
+    for k in range(N):  # N groups (a handful): sph.eigen as the conventions ask
+        vals, vecs = sym_eig3_np(T1[k])
+        nk = vecs[:, 0]
+        t_k = np.cross(n, gr.bisector[k])
+        ref = float(np.dot(nk, t_k))
+        if abs(ref) < 1e-12:
+            ref = float(np.dot(nk, gr.bisector[k]))
+        pvals[k] = vals * F
+        pdirs[k] = -nk if ref < 0.0 else nk
+    member_plus = Pi @ ms.tension @ Pi
+    lam = np.linalg.eigvalsh(member_plus)[:, -1] if gr.group.size else np.zeros(0)
+    peak = np.zeros(N)
+    np.maximum.at(peak, gr.group, lam)
+    fired = (gr.count > 0) & (gr.weight_sum > 0.0) & (peak * F > sigma_t)
+    return pvals, pdirs, peak, fired
+
+
+def crack_radii(U_g: np.ndarray, fired: np.ndarray, K: float, area: float, e_near: float, Gc: float, B: float,
+                rho: float, L_body: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 11 (a dimensionally consistent reading, module doc step 7): r_outer,g = (S / S_ref) U'_g /
+    (G_c B), clamped to [rho_P, L_body], with U'_g = U_g min(1, K / sum U_g): the quasi-static field
+    cannot store more than the impact's kinetic energy K. Returns (r_outer (N,) m, U'_g (N,) J)."""
+    U_tot = float(U_g.sum())
+    scale = min(1.0, K / U_tot) if U_tot > 0.0 else 0.0
+    U_av = U_g * scale
+    S_ref = math.sqrt(3.0) / 4.0 * e_near**2  # the nearest particle's tet face
+    r_out = np.where(fired, np.clip((area / S_ref) * U_av / (Gc * B), rho, max(L_body, rho)), 0.0)
+    return r_out, U_av
+
+
+def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float) -> tuple[float, float]:
+    """U_limit (module doc step 8): the released energy U spread as u(r) = 315/(64 pi h^9)(h^2 -
+    r^2)^3 U (h = rho_P) frees a particle where u exceeds u_limit = G_c A_P / (2 V_P) (half its
+    surface: each freed face is one side of a crack shared with a neighbour). Returns (r_inner m,
+    u_limit J/m^3); r_inner = 0 when the energy does not reach u_limit anywhere."""
+    A_near = math.sqrt(3.0) * e_near**2  # m^2: surface of the regular tet
+    u_lim = 0.5 * Gc * A_near / V_near
+    r_in = 0.0
+    if U_rel > 0.0:
+        X = (64.0 * math.pi * rho**9 * u_lim / (315.0 * U_rel)) ** (1.0 / 3.0)
+        if X < rho * rho:
+            r_in = math.sqrt(rho * rho - X)
+    return r_in, u_lim
+
+
+def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
+                  r_out: np.ndarray, r_in: float, N: int) -> tuple[list[Crack], np.ndarray]:
+    """Step 6: a half-disc through P per fired group, with its crack normal, on the side of its
+    bisector projected onto the crack plane (the inward normal if the bisector is within ~6 degrees
+    of the crack normal); N = 1 gives a full disc. Returns (cracks, sides (N,3))."""
+    sides = np.zeros((N, 3))
+    cracks: list[Crack] = []
+    for k in np.flatnonzero(fired):
+        mk = pdirs[k]
+        side = None
+        if N > 1:
+            for cand_dir in (gr.bisector[k], n):
+                s = cand_dir - np.dot(cand_dir, mk) * mk
+                if np.linalg.norm(s) >= SIDE_MIN:
+                    side = s / np.linalg.norm(s)
+                    break
+        if side is not None:
+            sides[k] = side
+        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in,
+                            source=f"impact.group{k}"))
+    return cracks, sides

@@ -1,0 +1,114 @@
+"""The SPH displacement gradient of Algorithm 1 (paper Eq. 7, 10): grad u_i = sum_j (u_j - u_i) (x) d_ij
+over each member's own anisotropic kernel (Eq. 4), plain, with the Bonet-Lok correction, or by a
+quadratic weighted least-squares fit (the default; docs/notes_cracks.md says why). Host numpy,
+vectorised over a padded (member, neighbour) layout; no Python loop per particle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from core.errors import ConfigError
+from sph.kernel import GRAD_NORM
+
+CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
+DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
+QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
+
+
+def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
+    """Pairs (e, j) with member members[e] and local particle j != it, |G_i (x_j - x_i)| < 1
+    (gather with the member's own kernel, as sph/neighbours.py). Returns (owner e, index j), sorted."""
+    Gm = G[members]
+    rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]
+    tm = cKDTree(x[members])
+    tl = cKDTree(x[local])
+    sdm = tm.sparse_distance_matrix(tl, float(rho.max()) * (1.0 + 1e-12), output_type="ndarray")
+    e = sdm["i"].astype(np.int64)
+    j = local[sdm["j"].astype(np.int64)]
+    keep = j != members[e]
+    e, j = e[keep], j[keep]
+    xi = x[j] - x[members[e]]
+    q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], xi), axis=1)
+    keep = q < 1.0
+    e, j = e[keep], j[keep]
+    order = np.lexsort((j, e))
+    return e[order], j[order]
+
+
+def _quad_basis(X: np.ndarray) -> np.ndarray:
+    """(E,9) linear and quadratic monomials of scaled offsets X (E,3)."""
+    return np.concatenate([X, X * X, X[:, [0]] * X[:, [1]], X[:, [0]] * X[:, [2]], X[:, [1]] * X[:, [2]]], axis=1)
+
+
+def sph_gradient(
+    x: np.ndarray,
+    volume: np.ndarray,
+    G: np.ndarray,
+    u: np.ndarray,
+    members: np.ndarray,
+    owner: np.ndarray,
+    nbr: np.ndarray,
+    correction: bool | int = 2,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 7 at each member: grad u_i = sum_j (u_j - u_i) (x) d_ij (module doc, step 5).
+
+    x (N,3), volume (N,), G (N,3,3), u (N,3) (rows needed: members and their neighbours), pairs
+    (owner, nbr) from `neighbour_pairs`. correction: 0/False plain SPH (Eq. 7 as printed),
+    1/True Bonet-Lok, 2 quadratic weighted least squares. Returns (grad (M,3,3), order used (M,))."""
+    order = int(correction)
+    if order not in CORRECTIONS:
+        raise ConfigError("analyse_impact.correction", correction, "0/False (plain), 1/True (Bonet-Lok), 2 (quadratic)")
+    m = members.size
+    used = np.zeros(m, dtype=np.int64)
+    if owner.size == 0:
+        return np.zeros((m, 3, 3)), used
+    # padded layout (member, slot): every sum over a member's neighbours is a batched matmul
+    cnt = np.bincount(owner, minlength=m)
+    start = np.concatenate([[0], np.cumsum(cnt)[:-1]])
+    slot = np.arange(owner.size) - start[owner]
+    K = int(cnt.max())
+
+    def pad(vals: np.ndarray) -> np.ndarray:
+        out = np.zeros((m, K) + vals.shape[1:])
+        out[owner, slot] = vals
+        return out
+
+    i = members[owner]
+    xi = x[nbr] - x[i]
+    Gm = G[members]
+    Gi = Gm[owner]
+    Gx = np.einsum("eab,eb->ea", Gi, xi)
+    q = np.linalg.norm(Gx, axis=1)
+    inside = (q > 0.0) & (q < 1.0)
+    qs = np.where(inside, q, 1.0)
+    k = np.where(inside, GRAD_NORM * np.linalg.det(Gm)[owner] * (1.0 - qs) ** 2 / qs, 0.0)
+    g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
+    Vg = pad(volume[nbr][:, None] * g)  # (m, K, 3) plain SPH weights V_j grad W (Eq. 7, 10)
+    d = Vg
+    if order >= 1:
+        Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi))  # sum_j V_j grad W (x) xi
+        scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
+        det = np.linalg.det(Bm)
+        ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
+        L = np.tile(np.eye(3), (m, 1, 1))
+        if ok.any():
+            L[ok] = np.linalg.inv(Bm[ok])
+        used[ok] = 1
+        d = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
+    if order == 2:
+        srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: scales the basis
+        w = pad(volume[nbr] * k)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
+        pb = pad(_quad_basis(xi / srad[owner, None]))  # (m, K, 9)
+        ok2 = cnt >= 9
+        if ok2.any():
+            Mq = np.matmul(pb[ok2].transpose(0, 2, 1), w[ok2][:, :, None] * pb[ok2])
+            Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
+            c = np.matmul(pb[ok2], Mi)[:, :, :3] * (w[ok2] / srad[ok2, None])[:, :, None]
+            d = d.copy()
+            d[ok2] = c
+            used[ok2] = 2
+    du = pad(u[nbr] - u[i])
+    grad = np.matmul(du.transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
+    return grad, used
