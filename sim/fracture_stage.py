@@ -227,7 +227,6 @@ def cut_body(world, body: int, cracks: list, record: dict) -> dict:
     info = world.bodies[body]
     obj = world.cfg.objects[info.object_index]
     shatter = world.cfg.has("shatter")
-    t0 = time.perf_counter()
     ps, rep = apply_cracks(world.particles, cracks, mode=world.mode, shatter=shatter, bodies=[body],
                            history=info.history)
     t_cut = time.perf_counter()
@@ -275,10 +274,16 @@ def cut_body(world, body: int, cracks: list, record: dict) -> dict:
         subdivided=int(sum(s.children for s in rep.subdivision)) if rep.subdivision else 0,
         removed_links=int(sum(rep.removed_links)),
         particle_subdivision_ms=round(rep.timings["subdivision_s"] * 1e3, 3),
-        crack_generation_ms=round((t_split - t_cut + rep.timings["links_s"] + rep.timings["labels_s"]) * 1e3, 3),
+        crack_generation_ms=round((t_split - t_cut + rep.timings["links_s"] + rep.timings["shatter_s"]
+                                   + rep.timings["labels_s"]) * 1e3, 3),
     )
-    world.timers.total["fracture.cut"] += t_cut - t0
-    world.timers.total["fracture.split"] += t_split - t_cut
+    # the event's stages (sim/stages.py), each under its own name
+    cut = "fracture.subdivision" if world.mode == "subdivision" else "fracture.links"
+    tm = rep.timings
+    world.timers.add(cut, tm["subdivision_s"] + tm["links_s"])
+    if shatter:
+        world.timers.add("fracture.shatter", tm["shatter_s"])
+    world.timers.add("fracture.split", tm["labels_s"] + (t_split - t_cut))
     return record
 
 
@@ -308,6 +313,7 @@ def fracture_body(world, body: int, impact: dict) -> dict | None:
     t0 = time.perf_counter()
     result = analyse(world, body, impact)
     t1 = time.perf_counter()
+    world.timers.add("fracture.analysis", t1 - t0)
     world.last_analysis = (body, result)  # the viewer colours the analysed particles by it
     world.analyses.append(dict(frame=world.frame, body=body, speed=round(impact["speed"], 6),
                                cracks=len(result.cracks), stress_analysis_ms=round((t1 - t0) * 1e3, 3)))

@@ -23,6 +23,11 @@ class StageTimers:
             self.total[name] += dt
             self.frame[name] += dt
 
+    def add(self, name: str, seconds: float) -> None:
+        """Book seconds measured elsewhere (the stages inside a fracture event) under a stage name."""
+        self.total[name] += seconds
+        self.frame[name] += seconds
+
     def end_frame(self) -> dict[str, float]:
         done = {k: round(v * 1e3, 4) for k, v in self.frame.items()}
         self.frames.append(done)

@@ -25,6 +25,7 @@ from geometry.particles import ParticleSet
 from scenes.config import SceneConfig
 from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
+from sim.stages import FRAME, SUBSTEP, build_stages
 from sim.timers import StageTimers
 
 SMALL_PIECE = 0.01  # 1: pieces lighter than this fraction of their object's mass count as small
@@ -74,21 +75,8 @@ def transform_particles(ps: ParticleSet, rot: np.ndarray, offset: np.ndarray) ->
 
 
 def stage_list(cfg: SceneConfig) -> list[str]:
-    """The stages a scene builds, in frame order (DESIGN.md section 4)."""
-    stages = []
-    if cfg.has("rigid"):
-        stages.append("rigid")
-    if cfg.has("elastic"):
-        stages.append("elastic")
-    if cfg.has("fracture"):
-        stages.append("fracture.analysis")
-        stages.append("fracture.subdivision" if fracture_mode(cfg) == "subdivision" else "fracture.links")
-        if cfg.has("shatter"):
-            stages.append("fracture.shatter")
-        stages.append("fracture.split")
-    if cfg.has("debris"):
-        stages.append("debris")
-    return stages
+    """The names of the stages a scene builds, in frame order (sim/stages.py)."""
+    return [st.name for st in build_stages(cfg.scene.effects, fracture_mode(cfg) if cfg.has("fracture") else None)]
 
 
 def fracture_mode(cfg: SceneConfig) -> str:
@@ -113,8 +101,9 @@ class World:
             )
         self.cfg = cfg
         self.seed = cfg.scene.seed if seed is None else seed
-        self.stages = stage_list(cfg)
         self.mode = fracture_mode(cfg) if cfg.has("fracture") else None
+        self.plan = build_stages(cfg.scene.effects, self.mode)  # sim.stages.Stage, in frame order
+        self.stages = [st.name for st in self.plan]
         self.timers = StageTimers()
         self.allocations: dict[str, object] = {}  # Taichi-backed stores by name (for tests and release)
         self.frame = 0
@@ -310,26 +299,36 @@ class World:
         impacts: dict[int, dict] = {}
         if self.cfg.cracks and "rigid" in self.stages:
             self._scripted_cracks()
-        if "rigid" in self.stages:
+        substep = [st for st in self.plan if st.phase == SUBSTEP]
+        if substep:
             dt = self.dt_frame / sc.substeps
             for _ in range(sc.substeps):
-                with self.timers.stage("rigid"):
-                    self.rigid.step(dt)
-                if "debris" in self.stages:
-                    with self.timers.stage("debris"):
-                        self.debris.step(dt)
-                if self.mode is not None:
-                    with self.timers.stage("fracture.events"):
-                        self._collect_impacts(impacts)
-        if "elastic" in self.stages:
-            with self.timers.stage("elastic"):
-                self.elastic.step(self.elastic_steps_per_frame)
+                for st in substep:
+                    with self.timers.stage(st.name):
+                        self._run_stage(st.name, dt, impacts)
+        for st in self.plan:
+            if st.phase == FRAME:
+                with self.timers.stage(st.name):
+                    self._run_stage(st.name, self.dt_frame, impacts)
         if impacts:
             self._fracture(impacts)
         check_state(self)
         self.frame += 1
         self.time += self.dt_frame
         return self.timers.end_frame()
+
+    def _run_stage(self, name: str, dt: float, impacts: dict[int, dict]) -> None:
+        """One substep or frame stage (sim/stages.py); fracture events run their own stages."""
+        if name == "rigid":
+            self.rigid.step(dt)
+        elif name == "debris":
+            self.debris.step(dt)
+        elif name == "fracture.events":
+            self._collect_impacts(impacts)
+        elif name == "elastic":
+            self.elastic.step(self.elastic_steps_per_frame)
+        else:
+            raise AssertionError(f"no runner for stage {name!r}")
 
     def _collect_impacts(self, impacts: dict[int, dict]) -> None:
         """Keep, per breakable body, the hardest impact of this frame above the speed threshold."""

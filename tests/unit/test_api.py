@@ -99,6 +99,8 @@ def test_preview_changes_nothing_and_strike_breaks(plate):
     m0 = sim.particles().mass.sum()
     record = sim.strike("plate", top, [0.0, -v, 0.0])
     assert record is not None and record["cracks"] == 4 and sim.events()[-1] is record
+    event_stages = {"fracture.analysis", "fracture.subdivision", "fracture.shatter", "fracture.split"}
+    assert event_stages <= set(sim.world.timers.total)  # each timed under its own name (sim/stages.py)
     parts = sim.particles()
     assert parts.mass.sum() == pytest.approx(m0, rel=1e-12)  # mass conserved exactly (float64 host data)
     pieces = sim.pieces()
