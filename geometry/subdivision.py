@@ -180,9 +180,7 @@ def split_tets(verts: np.ndarray, d: np.ndarray, sign: np.ndarray) -> SplitResul
         out_order.append(np.repeat(idx, nc) * 32 + np.tile(np.arange(nc), len(idx)))
     if not out_v:
         z = np.zeros(0, dtype=np.int64)
-        return SplitResult(
-            np.zeros((0, 4, 3)), z, z, np.zeros((0, 4), np.int64), np.zeros((0, 4), bool), case
-        )
+        return SplitResult(np.zeros((0, 4, 3)), z, z, np.zeros((0, 4), np.int64), np.zeros((0, 4), bool), case)
     order = np.argsort(np.concatenate(out_order), kind="stable")  # children grouped by parent
     return SplitResult(
         verts=np.concatenate(out_v)[order],
@@ -231,12 +229,8 @@ def coplanar_overlap(ta: np.ndarray, tb: np.ndarray, rel_tol: float = 1e-9) -> n
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     w = np.cross(n, u)
     o = ta[:, 0]
-    pa = np.stack(
-        [np.einsum("mij,mj->mi", ta - o[:, None], u), np.einsum("mij,mj->mi", ta - o[:, None], w)], -1
-    )
-    pb = np.stack(
-        [np.einsum("mij,mj->mi", tb - o[:, None], u), np.einsum("mij,mj->mi", tb - o[:, None], w)], -1
-    )
+    pa = np.stack([np.einsum("mij,mj->mi", ta - o[:, None], u), np.einsum("mij,mj->mi", ta - o[:, None], w)], -1)
+    pb = np.stack([np.einsum("mij,mj->mi", tb - o[:, None], u), np.einsum("mij,mj->mi", tb - o[:, None], w)], -1)
     edges = np.concatenate([np.roll(pa, -1, 1) - pa, np.roll(pb, -1, 1) - pb], axis=1)  # (M, 6, 2)
     axes = np.stack([-edges[..., 1], edges[..., 0]], -1)
     length = np.linalg.norm(edges, axis=2)
@@ -313,17 +307,9 @@ def _join(keys_a: np.ndarray, keys_b: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return ia, ib
 
 
-def subdivide(
-    ps: ParticleSet, crack: Crack, bodies: Bodies = None, snap_rel: float = SNAP_REL
-) -> tuple[ParticleSet, SubdivisionReport]:
-    """Subdivide every physical particle whose tet the crack region cuts; relink (see module doc).
-
-    Returns a new ParticleSet (children appended after the existing particles, grouped by
-    parent; parents marked dead with no links) and a report. The input is not modified.
-    """
-    if not (0.0 <= snap_rel < 0.5):
-        raise ConfigError("fracture.snap_rel", snap_rel, "0 <= snap_rel < 0.5")
-    rep = SubdivisionReport(first_child=len(ps))
+def _cut_tets(ps: ParticleSet, crack: Crack, bodies: Bodies, snap_rel: float, rep: SubdivisionReport):
+    """The physical particles the crack region cuts, split by the tables: (candidates, SplitResult),
+    or None when nothing is cut (Algorithm 2, lines 1-4: sign test, snap, '3-1' / '2-2' cases)."""
     sel = body_mask(ps, bodies) & (ps.kind == KIND_PHYSICAL)
     ids = np.flatnonzero(sel)
     d_all = signed_distance(crack, ps.rest_verts[ids])
@@ -333,7 +319,7 @@ def subdivide(
     cand, d = ids[meets], d_all[meets]
     rep.candidates = int(cand.size)
     if cand.size == 0:
-        return ps, rep
+        return None
     verts = ps.rest_verts[cand]
     sign, snapped = snapped_signs(d, verts, snap_rel)
     rep.snapped_vertices = int(np.unique(point_ids(verts.reshape(-1, 3))[snapped.ravel()]).size)
@@ -342,38 +328,13 @@ def subdivide(
     rep.uncut_by_snap = int((~cut).sum())
     rep.cases = {CASE_NAMES[c]: int((split.case == c).sum()) for c in range(4) if (split.case == c).any()}
     if not cut.any():
-        return ps, rep
-    parents = cand[cut]
-    ch_parent = cand[split.parent]  # split.parent indexes the batch of candidates
-    ch_verts = split.verts
-    ch_vol = signed_volumes(ch_verts)
-    if np.any(ch_vol <= 0.0):
-        raise MeshError("subdivision", "non-positive child volume", f"min {ch_vol.min():.3e} m^3")
-    n0, nc = len(ps), len(ch_verts)
-    new_ids = n0 + np.arange(nc)
-    rep.subdivided, rep.children, rep.parents = int(parents.size), int(nc), parents
-    rep.min_volume_ratio = float((ch_vol / ps.volume[ch_parent]).min())
+        return None
+    return cand, split
 
-    is_sub = np.zeros(n0 + nc, dtype=bool)
-    is_sub[parents] = True
-    old_links = ps.links
-    links = np.concatenate([old_links, np.full((nc, 4), -1, dtype=np.int64)])
-    # old relations of the parents, kept to relink the children
-    p_rows = np.repeat(parents, 4)
-    p_face = np.tile(np.arange(4), parents.size)
-    p_nb = old_links[parents].ravel()
-    # clear every link to or from a parent
-    links[parents] = -1
-    links[(links >= 0) & is_sub[np.maximum(links, 0)]] = -1
-    ex = ps.extra_links
-    ex_par = is_sub[ex[:, 0]] | is_sub[ex[:, 1]] if len(ex) else np.zeros(0, bool)
-    old_ex = ex[ex_par]
-    keep_ex = ex[~ex_par]
 
-    # (1a) siblings: the faces two children of one parent share come from the tables
-    ch_faces = face_points(ch_verts).reshape(-1, 3, 3)  # (4C, 3, 3)
-    matched = np.zeros(4 * nc, dtype=bool)
-    first = np.searchsorted(split.parent, np.arange(len(cand)))  # first child of each batch tet
+def _link_siblings(split, n_cand: int, new_ids: np.ndarray, links: np.ndarray, matched: np.ndarray) -> None:
+    """(1a) the faces two children of one parent share, from the subdivision tables."""
+    first = np.searchsorted(split.parent, np.arange(n_cand))  # first child of each batch tet
     for c, tab in TABLES.items():
         b = np.flatnonzero(split.case == c)
         if b.size == 0 or len(tab.sibling_pairs) == 0:
@@ -387,32 +348,36 @@ def subdivide(
         links[new_ids[cb], jb] = new_ids[ca]
         matched[ca * 4 + ja] = True
         matched[cb * 4 + jb] = True
-    # (1b) children of two linked parents cut now: coinciding faces in the shared parent face (a
-    # link an earlier crack removed stays removed: only faces towards a linked neighbour qualify)
-    tag = split.face_tag
-    ctag = tag.ravel()
+
+
+def _link_cut_neighbours(ch_faces, ctag, ch_parent, old_links, is_sub, new_ids, links, matched) -> None:
+    """(1b) children of two linked parents cut now: coinciding faces in the shared parent face (a
+    link an earlier crack removed stays removed: only faces towards a linked neighbour qualify)."""
     nb_of_face = np.where(ctag >= 0, old_links[np.repeat(ch_parent, 4), np.maximum(ctag, 0)], -1)
     cross = np.flatnonzero((nb_of_face >= 0) & is_sub[np.maximum(nb_of_face, 0)])
-    if cross.size:
-        keys = face_keys(ch_faces[cross])
-        _, inv, cnt = np.unique(keys, return_inverse=True, return_counts=True)
-        inv = inv.ravel()
-        if cnt.max() > 2:
-            raise MeshError(
-                "subdivision",
-                "a child face shared by more than two children",
-                f"{int((cnt > 2).sum())} faces",
-            )
-        order = np.argsort(inv, kind="stable")
-        s_inv = inv[order]
-        pair = np.flatnonzero(s_inv[1:] == s_inv[:-1])
-        fa, fb = cross[order[pair]], cross[order[pair + 1]]
-        links[new_ids[fa // 4], fa % 4] = new_ids[fb // 4]
-        links[new_ids[fb // 4], fb % 4] = new_ids[fa // 4]
-        matched[fa] = True
-        matched[fb] = True
+    if not cross.size:
+        return
+    keys = face_keys(ch_faces[cross])
+    _, inv, cnt = np.unique(keys, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    if cnt.max() > 2:
+        raise MeshError("subdivision", "a child face shared by more than two children", f"{int((cnt > 2).sum())} faces")
+    order = np.argsort(inv, kind="stable")
+    s_inv = inv[order]
+    pair = np.flatnonzero(s_inv[1:] == s_inv[:-1])
+    fa, fb = cross[order[pair]], cross[order[pair + 1]]
+    links[new_ids[fa // 4], fa % 4] = new_ids[fb // 4]
+    links[new_ids[fb // 4], fb % 4] = new_ids[fa // 4]
+    matched[fa] = True
+    matched[fb] = True
 
-    # (2) old pieces across each parent face: (parent, face k) -> (particle x, its face j)
+
+def _old_pieces(ps: ParticleSet, parents: np.ndarray, old_links: np.ndarray, is_sub: np.ndarray, old_ex):
+    """(2) what lay across each parent face before the cut: (parent, face k) -> (particle x, its face
+    j), from the face links and from the extra links whose faces are coplanar (Fig. 5)."""
+    p_rows = np.repeat(parents, 4)
+    p_face = np.tile(np.arange(4), parents.size)
+    p_nb = old_links[parents].ravel()
     nb_ok = (p_nb >= 0) & ~is_sub[np.maximum(p_nb, 0)]
     nb_ok &= ps.alive[np.maximum(p_nb, 0)]
     pc_par, pc_k, pc_x = p_rows[nb_ok], p_face[nb_ok], p_nb[nb_ok]
@@ -428,11 +393,15 @@ def subdivide(
         pc_k = np.concatenate([pc_k, fk[found]])
         pc_x = np.concatenate([pc_x, e_x[found]])
         pc_j = np.concatenate([pc_j, fj[found]])
+    return pc_par, pc_k, pc_x, pc_j
 
-    # unmatched child faces lying in a parent face
-    cf = np.flatnonzero(~matched & (ctag >= 0))
-    cf_child = cf // 4
-    cf_key = ch_parent[cf_child] * 4 + tag.ravel()[cf]
+
+def _link_old_pieces(ps, ch_faces, tag, ch_parent, matched, old, new_ids, links) -> np.ndarray:
+    """Unmatched child faces lying in a parent face meet the old piece across it: a face link where
+    the faces coincide, an extra link where they only overlap (Fig. 5). Returns the new extra links."""
+    pc_par, pc_k, pc_x, pc_j = old
+    cf = np.flatnonzero(~matched & (tag.ravel() >= 0))
+    cf_key = ch_parent[cf // 4] * 4 + tag.ravel()[cf]
     ia, ib = _join(cf_key, pc_par * 4 + pc_k)
     new_extra = np.zeros((0, 2), dtype=np.int64)
     if ia.size:
@@ -450,16 +419,17 @@ def subdivide(
             new_extra = np.stack([c_id[part][ov], x[part][ov]], axis=1)
     if len(new_extra):
         new_extra = np.unique(np.sort(new_extra, axis=1), axis=0)
-    rep.new_extra_links = int(len(new_extra))
-    extra = np.concatenate([keep_ex, new_extra]) if len(new_extra) else keep_ex.copy()
-    if len(extra):
-        extra = np.unique(np.sort(extra, axis=1), axis=0)
+    return new_extra
 
-    # children's physical attributes (Sect. 5.2: the parent's density)
+
+def _with_children(ps: ParticleSet, parents, ch_parent, ch_verts, ch_vol, links, extra) -> ParticleSet:
+    """The particle set with the children appended (Sect. 5.2: the parent's density, material, body
+    and kernel) and the parents dead."""
+    nc = len(ch_verts)
     rho = ps.mass[ch_parent] / ps.volume[ch_parent]
     alive = np.concatenate([ps.alive, np.ones(nc, dtype=bool)])
     alive[parents] = False
-    out = replace(
+    return replace(
         ps,
         rest_verts=np.concatenate([ps.rest_verts, ch_verts]),
         volume=np.concatenate([ps.volume, ch_vol]),
@@ -474,4 +444,53 @@ def subdivide(
         alive=alive,
         extra_links=extra.astype(np.int64).reshape(-1, 2),
     )
-    return out, rep
+
+
+def subdivide(
+    ps: ParticleSet, crack: Crack, bodies: Bodies = None, snap_rel: float = SNAP_REL
+) -> tuple[ParticleSet, SubdivisionReport]:
+    """Subdivide every physical particle whose tet the crack region cuts; relink (see module doc).
+
+    Returns a new ParticleSet (children appended after the existing particles, grouped by
+    parent; parents marked dead with no links) and a report. The input is not modified.
+    """
+    if not (0.0 <= snap_rel < 0.5):
+        raise ConfigError("fracture.snap_rel", snap_rel, "0 <= snap_rel < 0.5")
+    rep = SubdivisionReport(first_child=len(ps))
+    found = _cut_tets(ps, crack, bodies, snap_rel, rep)
+    if found is None:
+        return ps, rep
+    cand, split = found
+    parents = cand[split.case >= 0]
+    ch_parent = cand[split.parent]  # split.parent indexes the batch of candidates
+    ch_verts = split.verts
+    ch_vol = signed_volumes(ch_verts)
+    if np.any(ch_vol <= 0.0):
+        raise MeshError("subdivision", "non-positive child volume", f"min {ch_vol.min():.3e} m^3")
+    n0, nc = len(ps), len(ch_verts)
+    new_ids = n0 + np.arange(nc)
+    rep.subdivided, rep.children, rep.parents = int(parents.size), int(nc), parents
+    rep.min_volume_ratio = float((ch_vol / ps.volume[ch_parent]).min())
+
+    is_sub = np.zeros(n0 + nc, dtype=bool)
+    is_sub[parents] = True
+    old_links = ps.links
+    links = np.concatenate([old_links, np.full((nc, 4), -1, dtype=np.int64)])
+    ex = ps.extra_links
+    ex_par = is_sub[ex[:, 0]] | is_sub[ex[:, 1]] if len(ex) else np.zeros(0, bool)
+    old = _old_pieces(ps, parents, old_links, is_sub, ex[ex_par])
+    # clear every link to or from a parent
+    links[parents] = -1
+    links[(links >= 0) & is_sub[np.maximum(links, 0)]] = -1
+
+    ch_faces = face_points(ch_verts).reshape(-1, 3, 3)  # (4C, 3, 3)
+    matched = np.zeros(4 * nc, dtype=bool)
+    _link_siblings(split, len(cand), new_ids, links, matched)
+    _link_cut_neighbours(ch_faces, split.face_tag.ravel(), ch_parent, old_links, is_sub, new_ids, links, matched)
+    new_extra = _link_old_pieces(ps, ch_faces, split.face_tag, ch_parent, matched, old, new_ids, links)
+    rep.new_extra_links = int(len(new_extra))
+    keep_ex = ex[~ex_par]
+    extra = np.concatenate([keep_ex, new_extra]) if len(new_extra) else keep_ex.copy()
+    if len(extra):
+        extra = np.unique(np.sort(extra, axis=1), axis=0)
+    return _with_children(ps, parents, ch_parent, ch_verts, ch_vol, links, extra), rep

@@ -96,6 +96,21 @@ def _radius_ratio(p: np.ndarray) -> np.ndarray:
     return np.where(vol > 0, 3.0 * inr / np.maximum(circ, 1e-300), 0.0)
 
 
+def _peel_surface_slivers(points: np.ndarray, tets: np.ndarray, name: str) -> tuple[np.ndarray, int]:
+    """Remove surface tets (a face without neighbour) whose radius ratio is below SLIVER_RATIO,
+    layer by layer (at most 50); returns (tets, number removed)."""
+    removed = 0
+    for _ in range(50):
+        ratio = _radius_ratio(points[tets])
+        adj = face_adjacency(tets, name)
+        bad = (ratio < SLIVER_RATIO) & (adj < 0).any(1)
+        if not bad.any():
+            break
+        removed += int(bad.sum())
+        tets = tets[~bad]
+    return tets, removed
+
+
 def tetrahedralize(
     shape,
     resolution: float,
@@ -147,17 +162,8 @@ def tetrahedralize(
     tets[flip] = tets[flip][:, [0, 2, 1, 3]]
     keep = shape.sdf(p.mean(1)) < 0
     tets = tets[keep]
-    # peel surface slivers
-    removed = 0
-    for _ in range(50):
-        ratio = _radius_ratio(points[tets])
-        adj = face_adjacency(tets, getattr(shape, "name", "shape"))
-        bad = (ratio < SLIVER_RATIO) & (adj < 0).any(1)
-        if not bad.any():
-            break
-        removed += int(bad.sum())
-        tets = tets[~bad]
     name = getattr(shape, "name", "shape")
+    tets, removed = _peel_surface_slivers(points, tets, name)
     if len(tets) == 0:
         raise MeshError(name, f"resolution {h:g} m is too coarse for this object: no tet lies inside it",
                         "use a resolution below the object's thickness")
@@ -168,7 +174,7 @@ def tetrahedralize(
     used, inverse = np.unique(tets, return_inverse=True)
     verts = points[used]
     tets = inverse.reshape(-1, 4)
-    mesh = TetMesh(verts, tets, shape.region(verts[tets].mean(1)), source=getattr(shape, "name", "shape"))
+    mesh = TetMesh(verts, tets, shape.region(verts[tets].mean(1)), source=name)
     report = quality_report(mesh)
     report.update(
         surface_samples=int(len(surface)),

@@ -176,44 +176,53 @@ def eff_mass(ima, imb, iwa, iwb, ra, rb, d):
     return res
 
 
+@ti.func
+def contact_geometry(s: ti.template(), i, key, ba):
+    """Sphere i of body ba against sphere `key` (>= 0) or collider -1 - key: the other body (-1 for a
+    collider), unit normal from B towards A, signed gap (m), contact point midway between the
+    surfaces, and the pair's friction and restitution."""
+    xi = s.bp_x[i]
+    ri = s.bp_radius[i]
+    bb = -1
+    n = vec3(0.0, 1.0, 0.0)
+    gap = 0.0
+    p = xi
+    mu = 0.0
+    e = 0.0
+    if key >= 0:
+        bb = s.bp_body[key]
+        d = xi - s.bp_x[key]
+        dist = d.norm()
+        rj = s.bp_radius[key]
+        if dist > 1e-9 * (ri + rj):
+            n = d / dist
+        else:
+            # coincident centres: separate along the line of the centres of mass
+            dc = s.body_x[ba] - s.body_x[bb]
+            if dc.norm() > 0.0:
+                n = dc / dc.norm()
+        gap = dist - ri - rj
+        p = 0.5 * ((xi - ri * n) + (s.bp_x[key] + rj * n))
+        mu = ti.sqrt(s.body_friction[ba] * s.body_friction[bb])
+        e = ti.max(s.body_restitution[ba], s.body_restitution[bb])
+    else:
+        k = -1 - key
+        cgap, nn, surf = collider_gap(s, k, xi, ri)
+        gap = cgap
+        n = nn
+        p = 0.5 * ((xi - ri * n) + surf)
+        mu = ti.sqrt(s.body_friction[ba] * s.col_friction[k])
+        e = ti.max(s.body_restitution[ba], s.col_restitution[k])
+    return bb, n, gap, p, mu, e
+
+
 @ti.kernel
 def k_setup(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float):
     for c in range(nc):
         i = s.ct_a[c]
         key = s.ct_b[c]
         ba = s.bp_body[i]
-        xi = s.bp_x[i]
-        ri = s.bp_radius[i]
-        bb = -1
-        n = vec3(0.0, 1.0, 0.0)
-        gap = 0.0
-        p = xi
-        mu = 0.0
-        e = 0.0
-        if key >= 0:
-            bb = s.bp_body[key]
-            d = xi - s.bp_x[key]
-            dist = d.norm()
-            rj = s.bp_radius[key]
-            if dist > 1e-9 * (ri + rj):
-                n = d / dist
-            else:
-                # coincident centres: separate along the line of the centres of mass
-                dc = s.body_x[ba] - s.body_x[bb]
-                if dc.norm() > 0.0:
-                    n = dc / dc.norm()
-            gap = dist - ri - rj
-            p = 0.5 * ((xi - ri * n) + (s.bp_x[key] + rj * n))
-            mu = ti.sqrt(s.body_friction[ba] * s.body_friction[bb])
-            e = ti.max(s.body_restitution[ba], s.body_restitution[bb])
-        else:
-            k = -1 - key
-            cgap, nn, surf = collider_gap(s, k, xi, ri)
-            gap = cgap
-            n = nn
-            p = 0.5 * ((xi - ri * n) + surf)
-            mu = ti.sqrt(s.body_friction[ba] * s.col_friction[k])
-            e = ti.max(s.body_restitution[ba], s.col_restitution[k])
+        bb, n, gap, p, mu, e = contact_geometry(s, i, key, ba)
         ra = p - s.body_x[ba]
         rb = vec3(0.0)
         ima = 0.0

@@ -31,13 +31,28 @@ class RigidStore:
         self.cap_colliders = int(ncol)
         self.cap_contacts = int(nct)
         self.grid_size = _pow2_at_least(2 * self.cap_spheres)  # hash buckets, a power of two
-        vec3, vec4, mat3, ivec3 = ti.math.vec3, ti.math.vec4, ti.math.mat3, ti.math.ivec3
         fb = ti.FieldsBuilder()
 
         def dense(n, *fields):
             for f in fields:
                 fb.dense(ti.i, n).place(f)
 
+        self._bodies(dense, nb)
+        self._spheres(dense, ns)
+        self._grid(dense, ns)
+        self._colliders(dense, ncol)
+        self._contacts(dense, nct)
+        # ---- scalars ----
+        self.max_reach = ti.field(float)  # () m: largest sphere radius + sweep this step
+        self.ct_total = ti.field(ti.i32)  # () -: contacts found by the narrow-phase count
+        self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
+        self.max_level = ti.field(ti.i32)  # () -: largest support level this step
+        fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level)
+        self._tree = fb.finalize()
+
+    def _bodies(self, dense, nb: int) -> None:
+        """Per body: fixed mass properties and materials, then pose, velocity and step scratch."""
+        vec3, vec4, mat3 = ti.math.vec3, ti.math.vec4, ti.math.mat3
         # ---- bodies: fixed data ----
         self.body_inv_mass = ti.field(float)  # (NB,) 1/kg: 0 for a static body
         self.body_ref_com = vec3.field()  # (NB,) m: centre of mass in reference coordinates
@@ -47,17 +62,8 @@ class RigidStore:
         self.body_restitution = ti.field(float)  # (NB,) -: coefficient of restitution
         self.body_friction = ti.field(float)  # (NB,) -: Coulomb friction coefficient
         self.body_static = ti.field(ti.i32)  # (NB,) flag: 1 = immovable (window frame, fixed body)
-        dense(
-            nb,
-            self.body_inv_mass,
-            self.body_ref_com,
-            self.body_inv_inertia,
-            self.body_principal_q,
-            self.body_inv_principal,
-            self.body_restitution,
-            self.body_friction,
-            self.body_static,
-        )
+        dense(nb, self.body_inv_mass, self.body_ref_com, self.body_inv_inertia, self.body_principal_q,
+              self.body_inv_principal, self.body_restitution, self.body_friction, self.body_static)
         # ---- bodies: changing data ----
         self.body_alive = ti.field(ti.i32)  # (NB,) flag: 0 once removed (ids are never reused)
         self.body_x = vec3.field()  # (NB,) m: world position of the centre of mass
@@ -75,33 +81,17 @@ class RigidStore:
         self.body_dr = mat3.field()  # (NB,) -: rotation since the start of the step, R(q) R0^T
         self.body_pv = vec3.field()  # (NB,) m/s: pseudo velocity of the position correction
         self.body_pw = vec3.field()  # (NB,) rad/s: pseudo angular velocity of the position correction
-        self.body_level = ti.field(
-            ti.i32
-        )  # (NB,) -: contact-graph distance from static support (mass scaling)
+        self.body_level = ti.field(ti.i32)  # (NB,) -: contact-graph distance from static support (mass scaling)
         self.body_island = ti.field(ti.i32)  # (NB,) -: union-find parent for sleeping islands
         self.body_island_time = ti.field(float)  # (NB,) s: smallest sleep time of the island rooted here
-        dense(
-            nb,
-            self.body_alive,
-            self.body_x,
-            self.body_q,
-            self.body_v,
-            self.body_w,
-            self.body_asleep,
-            self.body_sleep_time,
-            self.body_active,
-            self.body_wake,
-            self.body_inv_inertia_world,
-            self.body_x0,
-            self.body_r0,
-            self.body_dx,
-            self.body_dr,
-            self.body_pv,
-            self.body_pw,
-            self.body_level,
-            self.body_island,
-            self.body_island_time,
-        )
+        dense(nb, self.body_alive, self.body_x, self.body_q, self.body_v, self.body_w, self.body_asleep,
+              self.body_sleep_time, self.body_active, self.body_wake, self.body_inv_inertia_world, self.body_x0,
+              self.body_r0, self.body_dx, self.body_dr, self.body_pv, self.body_pw, self.body_level,
+              self.body_island, self.body_island_time)
+
+    def _spheres(self, dense, ns: int) -> None:
+        """Per boundary sphere (Sect. 5.3): body-frame centre and radius, then this step's sweep."""
+        vec3, ivec3 = ti.math.vec3, ti.math.ivec3
         # ---- boundary spheres: fixed data ----
         self.bp_local = vec3.field()  # (NS,) m: centre in the body frame (X_ref - body_ref_com)
         self.bp_radius = ti.field(float)  # (NS,) m: radius
@@ -118,6 +108,9 @@ class RigidStore:
         self.bp_ct_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of this step's contacts by sphere
         self.bp_pc_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of the previous step's contacts
         dense(ns + 1, self.bp_ct_start, self.bp_pc_start)
+
+    def _grid(self, dense, ns: int) -> None:
+        """The broad phase's hashed uniform grid (CSR buckets of sphere ids)."""
         # ---- broad phase: hashed uniform grid ----
         self.grid_count = ti.field(ti.i32)  # (H,) -: spheres per bucket
         self.grid_fill = ti.field(ti.i32)  # (H,) -: scatter cursor per bucket
@@ -126,6 +119,10 @@ class RigidStore:
         dense(self.grid_size + 1, self.grid_start)
         self.grid_entry = ti.field(ti.i32)  # (NS,) -: sphere ids sorted by bucket, then id
         dense(ns, self.grid_entry)
+
+    def _colliders(self, dense, ncol: int) -> None:
+        """Per static collider (plane or oriented box)."""
+        vec3, vec4 = ti.math.vec3, ti.math.vec4
         # ---- static colliders: fixed data ----
         self.col_kind = ti.field(ti.i32)  # (NC,) -: 0 = half-space (plane), 1 = oriented box
         self.col_x = vec3.field()  # (NC,) m: a point of the plane / centre of the box
@@ -134,16 +131,12 @@ class RigidStore:
         self.col_half = vec3.field()  # (NC,) m: box half extents
         self.col_restitution = ti.field(float)  # (NC,) -
         self.col_friction = ti.field(float)  # (NC,) -
-        dense(
-            ncol,
-            self.col_kind,
-            self.col_x,
-            self.col_q,
-            self.col_n,
-            self.col_half,
-            self.col_restitution,
-            self.col_friction,
-        )
+        dense(ncol, self.col_kind, self.col_x, self.col_q, self.col_n, self.col_half, self.col_restitution,
+              self.col_friction)
+
+    def _contacts(self, dense, nct: int) -> None:
+        """Per contact of this step (sorted by (sphere a, key b)) and of the previous one (warm start)."""
+        vec3 = ti.math.vec3
         # ---- contacts of this step (sorted by (sphere a, key b)) ----
         self.ct_a = ti.field(ti.i32)  # (NCT,) -: sphere A
         self.ct_b = ti.field(ti.i32)  # (NCT,) -: sphere B, or -1 - k for static collider k
@@ -172,48 +165,15 @@ class RigidStore:
         self.ct_lt1 = ti.field(float)  # (NCT,) N s: accumulated friction impulse along t1
         self.ct_lt2 = ti.field(float)  # (NCT,) N s: accumulated friction impulse along t2
         self.ct_lp = ti.field(float)  # (NCT,) N s: accumulated pseudo impulse (position correction)
-        dense(
-            nct,
-            self.ct_a,
-            self.ct_b,
-            self.ct_body_a,
-            self.ct_body_b,
-            self.ct_n,
-            self.ct_p,
-            self.ct_ra,
-            self.ct_rb,
-            self.ct_t1,
-            self.ct_t2,
-            self.ct_sep,
-            self.ct_ima,
-            self.ct_imb,
-            self.ct_sa,
-            self.ct_sb,
-            self.ct_mn,
-            self.ct_mt1,
-            self.ct_mt2,
-            self.ct_vn0,
-            self.ct_mu,
-            self.ct_e,
-            self.ct_ln,
-            self.ct_ltot,
-            self.ct_lmax,
-            self.ct_lt1,
-            self.ct_lt2,
-            self.ct_lp,
-        )
+        dense(nct, self.ct_a, self.ct_b, self.ct_body_a, self.ct_body_b, self.ct_n, self.ct_p, self.ct_ra,
+              self.ct_rb, self.ct_t1, self.ct_t2, self.ct_sep, self.ct_ima, self.ct_imb, self.ct_sa, self.ct_sb,
+              self.ct_mn, self.ct_mt1, self.ct_mt2, self.ct_vn0, self.ct_mu, self.ct_e, self.ct_ln, self.ct_ltot,
+              self.ct_lmax, self.ct_lt1, self.ct_lt2, self.ct_lp)
         # ---- contacts of the previous step, for warm starting ----
         self.pc_b = ti.field(ti.i32)  # (NCT,) -: key b of the previous contact (CSR by sphere a)
         self.pc_ln = ti.field(float)  # (NCT,) N s: its normal impulse
         self.pc_lt = vec3.field()  # (NCT,) N s: its friction impulse, world vector
         dense(nct, self.pc_b, self.pc_ln, self.pc_lt)
-        # ---- scalars ----
-        self.max_reach = ti.field(float)  # () m: largest sphere radius + sweep this step
-        self.ct_total = ti.field(ti.i32)  # () -: contacts found by the narrow-phase count
-        self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
-        self.max_level = ti.field(ti.i32)  # () -: largest support level this step
-        fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level)
-        self._tree = fb.finalize()
 
     def release(self) -> None:
         """Destroy the field tree (a process can hold only ~512 trees, TAICHI_NOTES)."""

@@ -50,6 +50,26 @@ class _HostBodies:
     static: list = field(default_factory=list)  # bool
     sphere_count: list = field(default_factory=list)  # int: spheres of the body when added
 
+    def append(self, mp, static: bool, restitution: float, friction: float, spheres: int) -> None:
+        """One body's fixed data (a static body has zero inverse mass and inertia)."""
+        self.mass.append(float(mp.mass))
+        self.inertia.append(np.asarray(mp.inertia, dtype=np.float64))
+        if static:
+            self.inv_mass.append(0.0)
+            self.inv_inertia.append(np.zeros((3, 3)))
+            self.inv_principal.append(np.zeros(3))
+            self.principal_q.append(IDENTITY.copy())
+        else:
+            self.inv_mass.append(1.0 / mp.mass)
+            self.inv_inertia.append(mp.inv_inertia)
+            self.inv_principal.append(1.0 / mp.principal_moments)
+            self.principal_q.append(mp.principal_q)
+        self.ref_com.append(np.asarray(mp.com, dtype=np.float64))
+        self.restitution.append(restitution)
+        self.friction.append(friction)
+        self.static.append(static)
+        self.sphere_count.append(spheres)
+
 
 class RigidWorld(HostSync):
     """Rigid bodies on boundary spheres with static colliders; see the module docstring.
@@ -129,9 +149,7 @@ class RigidWorld(HostSync):
     @property
     def capacity(self) -> dict:
         s = self._s
-        return dict(
-            bodies=s.cap_bodies, spheres=s.cap_spheres, colliders=s.cap_colliders, contacts=s.cap_contacts
-        )
+        return dict(bodies=s.cap_bodies, spheres=s.cap_spheres, colliders=s.cap_colliders, contacts=s.cap_contacts)
 
     def body_mass(self, body: int) -> float:
         """kg: the sum of the body's tet masses; also for a static body, which the solver treats as
@@ -192,9 +210,7 @@ class RigidWorld(HostSync):
         n = np.asarray(normal, dtype=np.float64)
         if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
             raise ConfigError("collider.normal", normal, "a finite non-zero 3-vector")
-        return self._add_collider(
-            0, point, IDENTITY, n / np.linalg.norm(n), np.zeros(3), restitution, friction
-        )
+        return self._add_collider(0, point, IDENTITY, n / np.linalg.norm(n), np.zeros(3), restitution, friction)
 
     def add_box_collider(
         self, center, half_extents, q=IDENTITY, restitution: float = 0.0, friction: float = 0.5
@@ -204,9 +220,8 @@ class RigidWorld(HostSync):
         if h.shape != (3,) or not np.all(h > 0):
             raise ConfigError("collider.half_extents", half_extents, "three positive lengths (m)")
         q = np.asarray(q, dtype=np.float64)
-        return self._add_collider(
-            1, center, q / np.linalg.norm(q), np.array([0.0, 1.0, 0.0]), h, restitution, friction
-        )
+        return self._add_collider(1, center, q / np.linalg.norm(q), np.array([0.0, 1.0, 0.0]), h, restitution,
+                                  friction)
 
     def _add_collider(self, kind, x, q, n, half, restitution, friction) -> int:
         _check_material("collider", restitution, friction)
@@ -273,56 +288,16 @@ class RigidWorld(HostSync):
         rows = []
         new_local, new_rad, new_body = [], [], []
         for u, sp in enumerate(specs):
-            bid = self._nb + u
-            mp: MassProperties = sp["mass"]
-            static = bool(sp.get("static", False))
-            rest = float(sp.get("restitution", 0.0))
-            fric = float(sp.get("friction", 0.5))
-            _check_material(f"body {bid}", rest, fric)
-            loc = np.asarray(sp["sphere_local"], dtype=np.float64).reshape(-1, 3)
-            rad = np.asarray(sp["sphere_radius"], dtype=np.float64).reshape(-1)
-            if len(loc) == 0 or len(loc) != len(rad):
-                raise ConfigError(
-                    f"body {bid}.spheres", (len(loc), len(rad)), "at least one sphere, one radius each"
-                )
-            if not (np.all(np.isfinite(loc)) and np.all(np.isfinite(rad)) and np.all(rad > 0)):
-                raise ConfigError(f"body {bid}.sphere_radius", rad.min(initial=0.0), "finite, > 0 m")
-            if not static and not (math.isfinite(mp.mass) and mp.mass > 0):
-                raise ConfigError(f"body {bid}.mass", mp.mass, "finite, > 0 kg for a dynamic body")
-            x = np.asarray(mp.com if sp.get("x") is None else sp["x"], dtype=np.float64)
-            q = np.asarray(sp.get("q", IDENTITY), dtype=np.float64)
-            q = q / np.linalg.norm(q)
-            v = np.zeros(3) if static else np.asarray(sp.get("v", (0, 0, 0)), dtype=np.float64)
-            w = np.zeros(3) if static else np.asarray(sp.get("w", (0, 0, 0)), dtype=np.float64)
-            for name, val in (("x", x), ("v", v), ("w", w)):
-                if val.shape != (3,) or not np.all(np.isfinite(val)):
-                    raise ConfigError(f"body {bid}.{name}", val, "a finite 3-vector")
-            rows.append((mp, static, rest, fric, x, q, v, w, len(loc)))
+            row, loc, rad = _checked_spec(self._nb + u, sp)
+            rows.append(row)
             new_local.append(loc)
             new_rad.append(rad)
-            new_body.append(np.full(len(loc), bid, np.int32))
+            new_body.append(np.full(len(loc), self._nb + u, np.int32))
         nb_new = self._nb + len(specs)
         ns_add = sum(len(a) for a in new_local)
         self._ensure(nb_new, self._ns + ns_add, self._ncol)
-        hb = self._hb
         for mp, static, rest, fric, *_rest, nsph in rows:
-            hb.mass.append(float(mp.mass))
-            hb.inertia.append(np.asarray(mp.inertia, dtype=np.float64))
-            if static:
-                hb.inv_mass.append(0.0)
-                hb.inv_inertia.append(np.zeros((3, 3)))
-                hb.inv_principal.append(np.zeros(3))
-                hb.principal_q.append(IDENTITY.copy())
-            else:
-                hb.inv_mass.append(1.0 / mp.mass)
-                hb.inv_inertia.append(mp.inv_inertia)
-                hb.inv_principal.append(1.0 / mp.principal_moments)
-                hb.principal_q.append(mp.principal_q)
-            hb.ref_com.append(np.asarray(mp.com, dtype=np.float64))
-            hb.restitution.append(rest)
-            hb.friction.append(fric)
-            hb.static.append(static)
-            hb.sphere_count.append(nsph)
+            self._hb.append(mp, static, rest, fric, nsph)
         state = BodyState(
             x=np.array([r[4] for r in rows]),
             q=np.array([r[5] for r in rows]),
@@ -487,6 +462,33 @@ class RigidWorld(HostSync):
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.1):
             raise ConfigError("rigid.dt", dt, "(0, 0.1] s")
         rigid_step(self, dt)
+
+
+def _checked_spec(bid: int, sp: dict):
+    """One body spec of RigidWorld.add_bodies, checked: ((mass, static, restitution, friction, x, q,
+    v, w, sphere count), sphere centres (B, 3) m, radii (B,) m); ConfigError naming the body."""
+    mp: MassProperties = sp["mass"]
+    static = bool(sp.get("static", False))
+    rest = float(sp.get("restitution", 0.0))
+    fric = float(sp.get("friction", 0.5))
+    _check_material(f"body {bid}", rest, fric)
+    loc = np.asarray(sp["sphere_local"], dtype=np.float64).reshape(-1, 3)
+    rad = np.asarray(sp["sphere_radius"], dtype=np.float64).reshape(-1)
+    if len(loc) == 0 or len(loc) != len(rad):
+        raise ConfigError(f"body {bid}.spheres", (len(loc), len(rad)), "at least one sphere, one radius each")
+    if not (np.all(np.isfinite(loc)) and np.all(np.isfinite(rad)) and np.all(rad > 0)):
+        raise ConfigError(f"body {bid}.sphere_radius", rad.min(initial=0.0), "finite, > 0 m")
+    if not static and not (math.isfinite(mp.mass) and mp.mass > 0):
+        raise ConfigError(f"body {bid}.mass", mp.mass, "finite, > 0 kg for a dynamic body")
+    x = np.asarray(mp.com if sp.get("x") is None else sp["x"], dtype=np.float64)
+    q = np.asarray(sp.get("q", IDENTITY), dtype=np.float64)
+    q = q / np.linalg.norm(q)
+    v = np.zeros(3) if static else np.asarray(sp.get("v", (0, 0, 0)), dtype=np.float64)
+    w = np.zeros(3) if static else np.asarray(sp.get("w", (0, 0, 0)), dtype=np.float64)
+    for name, val in (("x", x), ("v", v), ("w", w)):
+        if val.shape != (3,) or not np.all(np.isfinite(val)):
+            raise ConfigError(f"body {bid}.{name}", val, "a finite 3-vector")
+    return (mp, static, rest, fric, x, q, v, w, len(loc)), loc, rad
 
 
 def _check_material(where: str, restitution: float, friction: float) -> None:

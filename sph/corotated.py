@@ -321,6 +321,34 @@ def _nd(dtype, data: np.ndarray):
     return out
 
 
+
+def _checked_inputs(x0, volume, G0, stiffness, material_id, order):
+    """CorotatedSPH's inputs as float64 arrays (x0 (n,3), volume (n,), G0 (n,3,3), stiffness list,
+    material ids (n,)); ValueError naming the first bad one."""
+    x0 = np.asarray(x0, dtype=np.float64)
+    n = x0.shape[0]
+    volume = np.asarray(volume, dtype=np.float64).reshape(-1)
+    G0 = np.asarray(G0, dtype=np.float64)
+    if G0.shape == (3, 3):
+        G0 = np.broadcast_to(G0, (n, 3, 3)).copy()
+    if n == 0 or x0.shape != (n, 3) or volume.shape != (n,) or G0.shape != (n, 3, 3):
+        raise ValueError(f"CorotatedSPH: x0 (n,3), volume (n,), G0 (n,3,3); got {x0.shape}, {volume.shape}, {G0.shape}")
+    Cs = stiffness if isinstance(stiffness, list | tuple) else [stiffness]
+    Cs = [np.asarray(C, dtype=np.float64) for C in Cs]
+    mid = np.zeros(n, np.int64) if material_id is None else np.asarray(material_id, np.int64).reshape(-1)
+    if mid.shape != (n,) or mid.min() < 0 or mid.max() >= len(Cs):
+        raise ValueError("CorotatedSPH: material_id must index the stiffness list")
+    if order not in ORDERS:
+        raise ValueError(f"CorotatedSPH: order must be one of {ORDERS}, got {order}")
+    return x0, volume, G0, Cs, mid
+
+
+def _padded(a: np.ndarray, dtype, m: int) -> np.ndarray:
+    """The first m rows of a in a buffer of at least one row (a Taichi ndarray cannot be empty)."""
+    buf = np.zeros((max(m, 1),) + a.shape[1:], dtype)
+    buf[:m] = a[:m]
+    return buf
+
 class CorotatedSPH:
     """Rest data, neighbour CSR and per-particle elastic state for corotated SPH (module doc).
 
@@ -342,23 +370,8 @@ class CorotatedSPH:
         stabilisation: float = 0.0,
         green_factor: bool = True,
     ) -> None:
-        x0 = np.asarray(x0, dtype=np.float64)
+        x0, volume, G0, Cs, mid = _checked_inputs(x0, volume, G0, stiffness, material_id, order)
         n = x0.shape[0]
-        volume = np.asarray(volume, dtype=np.float64).reshape(-1)
-        G0 = np.asarray(G0, dtype=np.float64)
-        if G0.shape == (3, 3):
-            G0 = np.broadcast_to(G0, (n, 3, 3)).copy()
-        if n == 0 or x0.shape != (n, 3) or volume.shape != (n,) or G0.shape != (n, 3, 3):
-            raise ValueError(
-                f"CorotatedSPH: x0 (n,3), volume (n,), G0 (n,3,3); got {x0.shape}, {volume.shape}, {G0.shape}"
-            )
-        Cs = stiffness if isinstance(stiffness, list | tuple) else [stiffness]
-        Cs = [np.asarray(C, dtype=np.float64) for C in Cs]
-        mid = np.zeros(n, np.int64) if material_id is None else np.asarray(material_id, np.int64).reshape(-1)
-        if mid.shape != (n,) or mid.min() < 0 or mid.max() >= len(Cs):
-            raise ValueError("CorotatedSPH: material_id must index the stiffness list")
-        if order not in ORDERS:
-            raise ValueError(f"CorotatedSPH: order must be one of {ORDERS}, got {order}")
         self.n = n
         self.order = int(order)
         self.stabilisation = float(stabilisation)
@@ -384,10 +397,7 @@ class CorotatedSPH:
         self.order_counts = {o: int((rest["used_order"] == o).sum()) for o in ORDERS}
 
         def pad(a: np.ndarray, dtype, use: bool = True) -> np.ndarray:
-            m = nnz if use else 0
-            buf = np.zeros((max(m, 1),) + a.shape[1:], dtype)
-            buf[:m] = a[:m]
-            return buf
+            return _padded(a, dtype, nnz if use else 0)
 
         i32, v3, m3 = ti.i32, ti.math.vec3, ti.math.mat3
         # fixed (rest) data

@@ -81,3 +81,26 @@ def test_no_import_cycle_between_files():
 def test_cycle_finder_finds_a_cycle():
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert _cycle({"a": {"b"}, "b": set()}) is None
+
+
+MAX_FILE_LINES = 500  # lines: a file holds one responsibility
+MAX_FUNCTION_LINES = 80  # lines: a function does one step (Algorithm 1's steps, a rigid stage, ...)
+
+
+def test_files_and_functions_stay_small():
+    too_long = []
+    for mod, path in _modules().items():
+        text = path.read_text()
+        if text.count("\n") > MAX_FILE_LINES:
+            too_long.append(f"{mod}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    too_long.append(f"{mod}.{node.name}: {n} lines")
+    assert not too_long, "\n".join(too_long)
+
+
+def test_every_module_says_what_it_does():
+    missing = [mod for mod, path in _modules().items() if ast.get_docstring(ast.parse(path.read_text())) is None]
+    assert not missing, missing
