@@ -6,6 +6,7 @@
     python main.py scenes               list the scenes and their effects
     python main.py check OBJECT|MESH    validate and print particle/tet statistics (Table 1)
     python main.py bench [--quick]      accuracy-vs-cost report in docs/report/
+    python main.py sweep SCENE --grid KEY=V1,V2,...   parameter sweep on Dask (docs/sweeps.md)
 """
 
 from __future__ import annotations
@@ -80,6 +81,23 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from bench.report import main as bench_main
 
     return bench_main(["--quick"] if args.quick else [])
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from anisofrac.sweep import SweepSpec, make_security, run_sweep
+
+    spec = SweepSpec(scene=args.scene, grids=list(args.grid or []), frames=args.frames,
+                     out=Path(args.out) if args.out else None, fixed=list(args.set or []),
+                     scheduler=args.scheduler, workers=args.workers, overwrite=args.overwrite,
+                     dataset=args.dataset, progress=not args.no_progress,
+                     security=make_security(args.tls_ca, args.tls_cert, args.tls_key),
+                     command=" ".join(["main.py"] + sys.argv[1:]) if sys.argv[1:2] == ["sweep"] else "")
+    r = run_sweep(spec)
+    print(f"sweep: {r.points} points, {r.computed} run now, {r.skipped} already done; "
+          f"{r.ok} ok, {r.failed} failed -> {r.out}")
+    return 0 if r.failed == 0 else 1
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -200,6 +218,25 @@ def build_parser() -> argparse.ArgumentParser:
     fg.add_argument("--no-progress", action="store_true", help="no progress bars")
     runtime_options(fg)
     fg.set_defaults(func=_cmd_figures)
+
+    w = sub.add_parser("sweep", help="run a scene over a grid of --set values on Dask; writes runs.parquet")
+    w.add_argument("scene", help="scene name or .toml file")
+    w.add_argument("--grid", action="append", metavar="KEY.PATH=V1,V2,...",
+                   help="values of one key path (TOML; commas inside [] {} or quotes stay); repeatable: the product")
+    w.add_argument("--set", action="append", metavar="KEY.PATH=VALUE", help="a value every run shares (repeatable)")
+    w.add_argument("--frames", type=int, default=None, help="frames per run (default: the scene's test_frames, "
+                   "else its frames); every frame runs")
+    w.add_argument("--out", default=None, help="output folder (default: out/sweep_<scene>); rerun to resume")
+    w.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a running dask scheduler, e.g. tcp://HOST:8786 (default: a local cluster on 127.0.0.1)")
+    w.add_argument("--workers", type=int, default=None, help="local cluster worker processes (default: CPU count)")
+    w.add_argument("--overwrite", action="store_true", help="forget the rows of an earlier sweep in --out")
+    w.add_argument("--dataset", action="store_true", help="per run: fragments.ply, cracks.json, params.json")
+    w.add_argument("--no-progress", action="store_true", help="no progress bar")
+    w.add_argument("--tls-ca", default=None, help="CA certificate (PEM) of a TLS scheduler")
+    w.add_argument("--tls-cert", default=None, help="client certificate (PEM) for a TLS scheduler")
+    w.add_argument("--tls-key", default=None, help="client private key (PEM) for a TLS scheduler")
+    w.set_defaults(func=_cmd_sweep)
 
     b = sub.add_parser("bench", help="the accuracy-vs-cost study; writes docs/report/")
     b.add_argument("--quick", action="store_true", help="a reduced study (minutes)")
