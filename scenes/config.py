@@ -57,7 +57,7 @@ class MaterialConfig:
     # N radial cracks per event (Algorithm 1's groups), or "auto": N from the plate's bending vs
     # fracture energy and the impact speed (sph/structure.py, star_crack_count)
     cracks: int | str = spec_field("int_or_auto", 3, lo=1, hi=32, unit="cracks per event")
-    # how it looks in frames: color, roughness, opacity, crack_color (sim/looks.py; defaults by kind)
+    # how it looks in frames: color, roughness, opacity, crack_color (render/looks.py; defaults by kind)
     look: dict = spec_field("dict", {})
 
     def check(self, path: str, source: str) -> None:
