@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import datetime
 import json
+import math
 from pathlib import Path
 
 from core.errors import ConfigError
@@ -24,19 +26,30 @@ def scene_names() -> list[str]:
     return names()
 
 
-def _toml_value(value, key: str) -> str:
-    """A Python value as a TOML literal (what `--set key=value` takes)."""
+def toml_literal(value, key: str = "overrides") -> str:
+    """A Python value (as TOML parses it, or numpy) written as one canonical TOML literal, the form
+    `--set` takes and sweep rows are keyed by. Other types raise ConfigError naming `key`."""
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, (int, float, str)):
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v, key) for v in value) + "]"
+        return "[" + ", ".join(toml_literal(v, key) for v in value) + "]"
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {_toml_value(v, key)}" for k, v in value.items()) + "}"
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v, key)}" for k, v in value.items()) + "}"
+    if isinstance(value, (datetime.date, datetime.time)):
+        return str(value)  # as TOML writes dates and times
     if hasattr(value, "tolist"):  # numpy scalars and arrays
-        return _toml_value(value.tolist(), key)
-    raise ConfigError(f"overrides.{key}", value, "a number, string, bool, list or table")
+        return toml_literal(value.tolist(), key)
+    raise ConfigError(key, value, "a number, string, bool, date, list or table")
 
 
 def overrides_as_text(overrides) -> list[str]:
@@ -44,7 +57,7 @@ def overrides_as_text(overrides) -> list[str]:
     if overrides is None:
         return []
     if isinstance(overrides, dict):
-        return [f"{k}={_toml_value(v, k)}" for k, v in overrides.items()]
+        return [f"{k}={toml_literal(v, f'overrides.{k}')}" for k, v in overrides.items()]
     if isinstance(overrides, (list, tuple)) and all(isinstance(o, str) for o in overrides):
         return list(overrides)
     raise ConfigError("overrides", overrides, "a dict of key paths to values, or a list of 'key.path=value'")

@@ -47,6 +47,7 @@ class Particles:
     id: np.ndarray  # (N,) int: index in the particle store
     x: np.ndarray  # (N, 3) m: world position (NaN for a shattered particle taken out of the simulation)
     x_ref: np.ndarray  # (N, 3) m: rest centroid, reference frame
+    verts_ref: np.ndarray  # (N, 4, 3) m: the particle's tet (rest vertices), reference frame
     volume: np.ndarray  # (N,) m^3
     mass: np.ndarray  # (N,) kg
     radius: np.ndarray  # (N,) m: radius of the sphere of the particle's volume
@@ -231,6 +232,7 @@ class Simulation:
         ids = np.flatnonzero(sel)
         G = getattr(self.world, "kernel_G", None)
         return Particles(id=ids, x=particle_positions(self.world, ids), x_ref=ps.centroid[ids].copy(),
+                         verts_ref=ps.rest_verts[ids].copy(),
                          volume=ps.volume[ids].copy(), mass=ps.mass[ids].copy(), radius=ps.radius[ids].copy(),
                          body=ps.body[ids].astype(np.int64), material=ps.material[ids].astype(np.int64),
                          kind=ps.kind[ids].astype(np.int64), parent=ps.parent[ids].copy(),

@@ -14,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import math
 import os
 import subprocess
 import sys
@@ -23,6 +22,7 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from anisofrac.api import toml_literal
 from anisofrac.sweep_results import parse_value, parse_value_table
 from core.errors import ConfigError
 
@@ -50,27 +50,6 @@ def split_values(text: str) -> list[str]:
             start = i + 1
     parts.append(text[start:])
     return [p.strip() for p in parts]
-
-
-def toml_literal(value) -> str:
-    """A parsed TOML value written back in one canonical TOML form (the form rows and keys use)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_literal(v)}" for k, v in value.items()) + "}"
-    return str(value)  # dates and times print as TOML writes them
 
 
 def parse_grid(specs: list[str]) -> dict[str, list[str]]:

@@ -136,6 +136,7 @@ def test_particle_kinds_partition_the_store(plate):
         kids = allp.id[allp.parent == p]
         assert sum(vol[c] for c in kids) == pytest.approx(vol[p], rel=1e-9)
     assert np.all(np.isfinite(every.x[every.body >= 0]))
+    assert np.allclose(every.verts_ref.mean(axis=1), every.x_ref, atol=1e-12)  # a tet's centroid
     deb = sim.debris()
     assert np.array_equal(np.sort(deb["particle"]), np.sort(every.id[every.body < 0]))
     with pytest.raises(af.ConfigError, match="particles.kind"):
