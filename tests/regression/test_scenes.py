@@ -12,7 +12,8 @@ from render.session import HeadlessSession
 from scenes.loader import scene_names
 from sim.world import World
 
-FAST = [n for n in scene_names() if n not in ("pots", "pet")]
+SLOW = ("pots", "pet", "wire")  # the big scenes, and the elastic wire (about 20 s of stepping)
+FAST = [n for n in scene_names() if n not in SLOW]
 
 
 W, H = 640, 480  # px: the default frame size of `main.py run`
@@ -97,7 +98,7 @@ def test_scene_runs_its_test_frames(name):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["pots", "pet"])
+@pytest.mark.parametrize("name", SLOW)
 def test_large_scene_runs_its_test_frames(name):
     sim = run_scene(name)
     try:
