@@ -1,4 +1,4 @@
-"""The World: builds only the stages a scene names and runs the frame loop of DESIGN.md section 4.
+"""The World: builds only the stages a scene names (sim/stages.py) and runs the frame loop of DESIGN.md section 4.
 
 It composes the packages and holds no physics itself:
 - geometry (Sect. 5.1, 5.3): objects -> tets -> physical particles and links -> boundary particles;
