@@ -21,19 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import ConfigError, SandboxError
+from sim.export_frames import body_frames
 
 
 # ----------------------------------------------------------------------------- frames
-def body_frames(world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per body: rotation R (B, 3, 3), position x (B, 3) m, reference centre of mass (B, 3) m."""
-    from rigid.quat import quat_to_matrix
-
-    st = world.rigid.body_state()
-    nb = world.rigid.n_bodies
-    com = np.array([world.rigid.body_ref_com(b) for b in range(nb)]).reshape(nb, 3)
-    return quat_to_matrix(st.q).reshape(nb, 3, 3), np.asarray(st.x, dtype=np.float64).reshape(nb, 3), com
-
-
 def to_world(frames, body, X) -> np.ndarray:
     """Reference points X (..., 3) of `body` (int or (...,) ids) -> world (m)."""
     R, x, com = frames

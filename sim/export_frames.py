@@ -16,20 +16,22 @@ import numpy as np
 from core.output import atomic_write_text
 
 
-def _poses(world):
+def body_frames(world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per body: rotation R (B, 3, 3), position x (B, 3) m, reference centre of mass (B, 3) m; a body
+    maps a reference point X to R (X - ref_com) + x."""
     from rigid.quat import quat_to_matrix
 
     st = world.rigid.body_state()
-    rot = np.stack([quat_to_matrix(q) for q in st.q])
-    com = np.stack([world.rigid.body_ref_com(b) for b in range(world.rigid.n_bodies)])
-    return rot, com, st.x
+    nb = world.rigid.n_bodies
+    com = np.array([world.rigid.body_ref_com(b) for b in range(nb)]).reshape(nb, 3)
+    return quat_to_matrix(st.q).reshape(nb, 3, 3), np.asarray(st.x, dtype=np.float64).reshape(nb, 3), com
 
 
 def world_positions(world, points: np.ndarray, body: np.ndarray) -> np.ndarray:
     """Reference-frame points of the given bodies at the bodies' current poses (m)."""
     if "rigid" not in world.stages:
         return points
-    rot, com, x = _poses(world)
+    rot, x, com = body_frames(world)
     return np.einsum("nij,nj->ni", rot[body], points - com[body]) + x[body]
 
 
