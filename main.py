@@ -42,12 +42,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.seed is not None:
         overrides.append(f"scene.seed={args.seed}")
     cfg = af.load_config(args.scene, overrides)  # validated before anything is built or written
+    exports = tuple(dict.fromkeys(args.export or []))
+    if exports and "rigid" not in cfg.scene.effects:
+        from core.errors import ConfigError
+
+        raise ConfigError("--export", ",".join(exports), f"a scene with the 'rigid' effect ({cfg.scene.name} has "
+                          f"{', '.join(cfg.scene.effects)})")
     _init(args)
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
                       progress=not args.no_progress, until_settled=not args.all_frames,
-                      colors=args.colors)
+                      colors=args.colors, export=exports)
     with af.Simulation(cfg) as sim:  # the Python API (docs/api.md)
         stats = sim.run_headless(opts)
     t1 = stats["table1"]
@@ -145,12 +151,18 @@ def _cmd_check(args: argparse.Namespace) -> int:
     print(f"  surface particles    {r['surface_particles']:>10,}")
     print(f"  boundary particles   {r['boundary_particles']:>10,}   (group size n = {r['boundary_group_size']})")
     print(f"  links                {r['links']:>10,}")
-    print("tet quality")
+    from geometry.tetrahedralize import QUALITY_BOUNDS
+
+    print(f"tet quality ({r.get('mesher', 'tet mesh file')}; bounds: dihedral >= "
+          f"{QUALITY_BOUNDS['min_dihedral_deg']:g} deg, radius ratio >= {QUALITY_BOUNDS['worst_radius_ratio']:g}, "
+          f"|volume error| <= {QUALITY_BOUNDS['volume_error']:g})")
     print(f"  tets / vertices      {r['tets']:>10,} / {r['vertices']:,}")
     print(f"  volume               {r['volume_m3']:.6g} m^3   mass {r['mass_kg']:.6g} kg")
     print(f"  tet volume min/max   {r['min_tet_volume_m3']:.3g} / {r['max_tet_volume_m3']:.3g} m^3")
     print(f"  radius ratio worst   {r['worst_radius_ratio']:.3f} (mean {r['mean_radius_ratio']:.3f}; 1 = regular)")
     print(f"  dihedral min/max     {r['min_dihedral_deg']:.1f} / {r['max_dihedral_deg']:.1f} deg")
+    if "volume_error" in r:
+        print(f"  volume error         {r['volume_error']:+.3%} against the solid ({r['reference_volume_m3']:.6g} m^3)")
     if "slivers_removed" in r:
         print(f"  surface slivers removed {r['slivers_removed']}")
     print(f"  thickness B          {r['thickness_m']:.4g} m")
@@ -191,6 +203,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=None, help="override scene.seed")
     r.add_argument("--meshes", default="none", choices=["none", "obj", "ply"], help="fragment meshes every frame")
     r.add_argument("--vtu", action="store_true", help="write a VTU series of the particles (ParaView)")
+    r.add_argument("--export", action="append", choices=["glb", "usd"],
+                   help="the whole run as one animated file: animation.glb (glTF 2.0) or animation.usd; repeatable")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--colors", default="material", choices=["material", "fragments"],
                    help="faces in their material's look (crack faces shaded), or one colour per fragment")

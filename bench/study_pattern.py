@@ -46,10 +46,10 @@ def pmma(toughness: float = 333.0):
     return Material("pmma", 1180.0, stiffness_isotropic(3.0e9, 0.35), tensile_strength=7.0e7, toughness=toughness)
 
 
-def pane(size: float = 0.3, thickness: float = THICK):
+def pane(size: float = 0.3, thickness: float = THICK, resolution: float = RES):
     from geometry.build import build_object
 
-    return build_object("pane", shape_params=dict(size=[size, size, thickness]), resolution=RES)
+    return build_object("pane", shape_params=dict(size=[size, size, thickness]), resolution=resolution)
 
 
 def rod():

@@ -205,6 +205,7 @@ class MeshSolid:
         dense = self._mesh.sample(max(20000, len(self._mesh.faces) * 4), return_index=False, seed=0)
         self._tree = cKDTree(np.concatenate([self._mesh.vertices, dense]))
         self._edge = float(np.median(edge))
+        self._wall = None  # (S,) m: sampled wall thicknesses, measured on first use
 
     def sdf(self, points: np.ndarray) -> np.ndarray:
         d, _ = self._tree.query(points)
@@ -245,5 +246,18 @@ class MeshSolid:
         return self._mesh
 
     def thickness(self) -> float:
-        lo, hi = self.bounds()
-        return float((hi - lo).min())
+        """m: the median wall thickness (Eq. 11's B): a shell's wall, a solid's size."""
+        return float(np.median(self._walls()))
+
+    def thinnest_wall(self) -> float:
+        """m: the thinnest part (5th percentile of the sampled wall thickness)."""
+        return float(np.percentile(self._walls(), 5))
+
+    def _walls(self) -> np.ndarray:
+        if self._wall is None:
+            from geometry.surface_checks import wall_thickness
+
+            walls = wall_thickness(self._mesh.vertices, self._mesh.faces)
+            lo, hi = self.bounds()
+            self._wall = walls if len(walls) else np.array([float((hi - lo).min())])
+        return self._wall

@@ -366,7 +366,7 @@ class Figurine(Shape):
         return d.min(1)
 
     def surface_samples(self, h: float) -> np.ndarray:
-        from geometry.tetrahedralize import project_to_surface
+        from geometry.layered_delaunay import project_to_surface
 
         return project_to_surface(self, h)
 

@@ -62,3 +62,22 @@ def check_surface_overlap(vertices: np.ndarray, faces: np.ndarray, source: str, 
             f"winding number {w_in[k]:.3g} inside and {w_out[k]:.3g} outside face {int(probe[k])}, "
             f"expected 1 and 0; {bad.size} of {probe.size} probed faces",
         )
+
+
+def wall_thickness(vertices: np.ndarray, faces: np.ndarray, samples: int = 400) -> np.ndarray:
+    """(S,) m: the wall thickness at up to `samples` faces (a fixed stride, deterministic): the distance
+    from each face's centre, inwards along its normal, to the next face the ray meets (trimesh's ray
+    test). A solid box gives its sizes, a pot its wall; Eq. 11's B for a mesh file and the check that
+    a part is not too thin for the tet size."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), process=False)
+    pick = np.unique(np.linspace(0, len(mesh.faces) - 1, min(samples, len(mesh.faces))).astype(np.int64))
+    normal = mesh.face_normals[pick]
+    start = mesh.triangles_center[pick]
+    hits, rays, _ = mesh.ray.intersects_location(start, -normal, multiple_hits=True)
+    dist = np.linalg.norm(hits - start[rays], axis=1)
+    far = dist > 1e-6 * float(np.ptp(mesh.vertices, axis=0).max())  # not the face the ray leaves from
+    out = np.full(len(pick), np.inf)
+    np.minimum.at(out, rays[far], dist[far])
+    return out[np.isfinite(out)]

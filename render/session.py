@@ -44,8 +44,9 @@ class SurfaceCache:
     def __init__(self) -> None:
         self._bodies: dict[int, tuple] = {}  # body -> (signature, verts, faces, face_id)
 
-    def surfaces(self, world):
-        from geometry.surface import SurfaceMesh, fragment_surfaces
+    def update(self, world) -> list[int]:
+        """Rebuild the changed bodies' meshes; returns the live bodies in id order."""
+        from geometry.surface import fragment_surfaces
 
         ps = world.particles
         labels = np.where(ps.alive, ps.body, -1).astype(np.int64)
@@ -73,9 +74,19 @@ class SurfaceCache:
                 used, inv = np.unique(f, return_inverse=True)
                 self._bodies[b] = (signature[b], mesh.verts[used], inv.reshape(-1, 3),
                                    mesh.face_id[mesh.face_label == b])
+        return bodies.tolist()
+
+    def body_mesh(self, body: int) -> tuple:
+        """(signature, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
+        return self._bodies[body]
+
+    def surfaces(self, world):
+        from geometry.surface import SurfaceMesh
+
+        bodies = self.update(world)
         verts, faces, face_id, vlab, flab = [], [], [], [], []
         offset = 0
-        for b in bodies.tolist():
+        for b in bodies:
             _, v, f, fid = self._bodies[b]
             verts.append(v)
             faces.append(f + offset)

@@ -7,6 +7,7 @@ a `ConfigError` naming the file, the key path, the value and the allowed range.
 from __future__ import annotations
 
 import copy
+import re
 import sys
 from pathlib import Path
 
@@ -39,6 +40,23 @@ def scene_path(name_or_path: str) -> Path:
     return candidate
 
 
+_INDEX = re.compile(r"\[\s*([^\]\s]+)\s*\]")  # objects[1] -> objects.1
+
+
+def resolve_mesh_path(mesh: str, source: str = "") -> str:
+    """A scene's `mesh` path: absolute, or relative to the working folder, else to the scene file's
+    folder, else to the project root (so `assets/vase.ply` works from anywhere). Unfound paths are
+    returned as written: the mesh loader then names the missing file."""
+    p = Path(mesh).expanduser()
+    if p.is_absolute() or p.exists():
+        return str(p)
+    bases = ([Path(source).resolve().parent] if source and Path(source).exists() else []) + [SCENE_DIR.parent]
+    for base in bases:
+        if (base / p).exists():
+            return str(base / p)
+    return mesh
+
+
 def _parse_value(text: str, key: str):
     try:
         return tomllib.loads(f"v = {text}")["v"]
@@ -49,13 +67,17 @@ def _parse_value(text: str, key: str):
 def apply_override(data: dict, assignment: str) -> None:
     """Apply one `key.path=value` (value in TOML syntax) to raw scene data.
 
-    Array-of-table items are addressed by index (`objects.0.velocity`) or by name
+    Array-of-table items are addressed by index, dotted or in brackets (`objects.0.velocity`,
+    `objects[0].velocity`, the form error messages use), or by name
     (`materials.porcelain.tensile_strength`).
     """
     if "=" not in assignment:
         raise ConfigError("--set", assignment, "key.path=value")
     path, text = assignment.split("=", 1)
-    keys = path.strip().split(".")
+    path = _INDEX.sub(r".\1", path.strip())
+    keys = path.split(".")
+    if any(not k for k in keys):
+        raise ConfigError("--set", assignment, "key.path=value with no empty key (a.b.c, objects[0].velocity)")
     node = data
     for i, key in enumerate(keys[:-1]):
         where = ".".join(keys[: i + 1])
@@ -66,7 +88,9 @@ def apply_override(data: dict, assignment: str) -> None:
             elif match:
                 node = match[0]
             else:
-                raise ConfigError(f"--set {where}", key, "an index or the name of an entry")
+                names = [t["name"] for t in node if isinstance(t, dict) and "name" in t]
+                allowed = f"an index 0..{len(node) - 1}" if node else "nothing (the list is empty)"
+                raise ConfigError(f"--set {where}", key, allowed + (" or a name: " + ", ".join(names) if names else ""))
         elif isinstance(node, dict):
             node = node.setdefault(key, {})
         else:

@@ -52,6 +52,7 @@ class RunOptions:
     overwrite: bool = False
     meshes: str = "none"  # none | obj | ply: fragment meshes every frame
     vtu: bool = False  # particle VTU series
+    export: tuple = ()  # animated exports of the whole run: "glb" (animation.glb), "usd" (animation.usd)
     progress: bool = True
     until_settled: bool = True  # stop once nothing has moved for SETTLED_S (False: every frame)
     colors: str = "material"  # material: each material's look | fragments: a colour per fragment
@@ -109,6 +110,20 @@ def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: boo
     }
 
 
+EXPORT_FILES = {"glb": "animation.glb", "usd": "animation.usd"}  # --export kind -> file in the output folder
+
+
+def write_animation(recorder, out: Path, kinds) -> list[str]:
+    """Write the recorded run in each requested format; returns the file names written."""
+    from sim.export_gltf import write_glb
+    from sim.export_usd import write_usd
+
+    writers = {"glb": write_glb, "usd": write_usd}
+    for kind in kinds:
+        writers[kind](recorder, out / EXPORT_FILES[kind])
+    return [EXPORT_FILES[k] for k in kinds]
+
+
 def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
     """Run a scene headless; returns the stats written to stats.json. With `world` (a built World of
     `cfg`, e.g. the Python API's Simulation.world) that world runs on from where it is and stays
@@ -138,12 +153,20 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
     bar = tqdm(total=frames, desc=cfg.scene.name, unit="frame", disable=not opts.progress, file=sys.stderr)
     settle = SettleClock(cfg.scene.fps)
     stopped = None
+    recorder = None
+    if opts.export:
+        from sim.animation import AnimationRecorder
+
+        recorder = AnimationRecorder(world, cfg.scene.fps)
+        recorder.record(world, 0)
     try:
         for _ in range(frames):
             world.step_frame()
             done += 1
             if renderer is not None:
                 renderer.write_frame()
+            if recorder is not None:
+                recorder.record(world, done)
             if opts.meshes != "none" or opts.vtu:
                 from sim.export_frames import write_frame_exports
 
@@ -162,6 +185,8 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
             renderer.close()
         stats = collect_stats(world, wall, done, interrupted)
         stats["stopped"] = stopped
+        if recorder is not None:
+            stats["exports"] = write_animation(recorder, out, opts.export)
         atomic_write_json(out / "stats.json", stats)
         if own:
             world.release()

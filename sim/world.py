@@ -23,6 +23,7 @@ from core.errors import ConfigError
 from geometry.build import build_object, make_shape
 from geometry.particles import ParticleSet
 from scenes.config import SceneConfig
+from scenes.loader import resolve_mesh_path
 from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
 from sim.stages import FRAME, SUBSTEP, build_stages
@@ -147,7 +148,8 @@ class World:
         density = np.array([self.cfg.materials[k].density for k in mats])
         try:
             if o.mesh:
-                geo = build_object(o.mesh, resolution=o.resolution, density=density, units=o.units,
+                mesh_file = resolve_mesh_path(o.mesh, self.cfg.source)
+                geo = build_object(mesh_file, resolution=o.resolution, density=density, units=o.units,
                                    repair=o.repair, seed=self.seed, group_size=o.group_size)
             else:
                 params = dict(o.shape)

@@ -197,7 +197,8 @@ class ElasticEffect:
             # The CFL rule alone does not bound the discrete operator (order 2 on disordered particles
             # can be 35x stiffer than order 1): never exceed DT_OPERATOR_SAFETY of 2 / omega_max.
             self.omega_max = self.max_frequency()
-            self.dt = min(self.dt_rule, DT_OPERATOR_SAFETY * 2.0 / self.omega_max)
+            if self.omega_max > 0.0:  # 0: no particle sees 3D neighbours; sim.guards.check_neighbourhoods says so
+                self.dt = min(self.dt_rule, DT_OPERATOR_SAFETY * 2.0 / self.omega_max)
         self._accelerations()
 
     @property

@@ -121,8 +121,10 @@ def test_a_crack_changes_direction_in_the_other_material():
         assert crossing, [c.source for c in result.cracks]
         turned = []
         for c in crossing:
-            near = int(np.argmin(np.linalg.norm(ps.centroid - c.point, axis=1)))
-            assert ps.material[near] == 1 and c.r_inner == 0.0
+            # the crossing is a black-half particle's centroid projected onto the stopped crack's plane
+            # (sph.crossings): within a tet size of the point, not necessarily its nearest centroid
+            dist = np.linalg.norm(ps.centroid - c.point, axis=1)
+            assert dist[ps.material == 1].min() < raw["objects"][0]["resolution"] and c.r_inner == 0.0
             parent = next(s for s in stopped if c.source.startswith(s.source + "."))
             turned.append(math.degrees(math.acos(min(1.0, abs(float(c.normal @ parent.normal))))))
             # the stopped crack ends at the crossing, which lies on its plane

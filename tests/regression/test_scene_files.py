@@ -107,6 +107,19 @@ def test_overrides_are_validated_like_the_file():
         load_scene("rigid_pile", ["materials.steel.friction=1"])
 
 
+def test_overrides_take_dotted_and_bracket_indices_and_list_valid_keys():
+    dotted = load_scene("pot", ["objects.0.velocity=[0, -9, 0]", "colliders.0.young=2.0e10"])
+    bracket = load_scene("pot", ["objects[0].velocity=[0, -9, 0]", "colliders[0].young=2.0e10"])
+    assert dotted.objects == bracket.objects and dotted.colliders == bracket.colliders
+    assert bracket.objects[0].velocity == [0.0, -9.0, 0.0] and bracket.colliders[0].young == 2.0e10
+    with pytest.raises(ConfigError, match=r"index 0\.\.0 or a name: pot"):
+        load_scene("pot", ["objects[3].velocity=[0, -9, 0]"])
+    with pytest.raises(ConfigError, match="a known key: angular_velocity, breakable"):
+        load_scene("pot", ["objects[0].velocty=[0, -9, 0]"])
+    with pytest.raises(ConfigError, match="no empty key"):
+        load_scene("pot", ["objects..velocity=1"])
+
+
 def test_nothing_is_written_for_a_bad_scene(tmp_path):
     bad = write(tmp_path, GOOD.replace("frames = 2", "frames = -1"))
     out = tmp_path / "out"

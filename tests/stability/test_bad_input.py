@@ -104,14 +104,14 @@ def budget_scene(**obj) -> dict:
 
 
 def test_size_beyond_the_particle_budget_is_refused_before_sampling(tmp_path):
-    """A 10 m mesh at 5 mm would need ~1.6e10 samples: refused with the object's key, the smallest
-    resolution allowed and the budget (geometry.tetrahedralize.MAX_SAMPLES = 3e6 samples)."""
+    """A 10 m mesh at 5 mm would need ~5e10 tets: refused before meshing with the object's key, the
+    smallest resolution allowed and the budget (geometry.tetrahedralize.MAX_TETS = 2e6 tets)."""
     path = mesh_file(tmp_path / "big.obj", trimesh.creation.box(extents=(10, 10, 10)))
     for obj in (dict(mesh=path, units="m"), dict(shape={"type": "pane", "size": [100.0, 100.0, 0.01]})):
         with pytest.raises(ConfigError) as info:
             World(scene_from_dict(budget_scene(**obj), "big"))
         msg = str(info.value)
-        assert "objects[0].resolution" in msg and "budget 3000000" in msg and "samples requested" in msg
+        assert "objects[0].resolution" in msg and "budget 2000000" in msg and "tets requested" in msg
 
 
 # ------------------------------------------------------------------------------------------------ scenes

@@ -142,7 +142,7 @@ def test_ball_does_not_tunnel_through_a_thin_pane(speed):
     assert zmin > 0.0 and vz > 0.0
 
 
-@pytest.mark.parametrize("speed", [50.0, TOP_SPEED_FRICTIONLESS])
+@pytest.mark.parametrize("speed", [50.0, TOP_SPEED_FRICTIONLESS, 120.0])
 def test_ball_does_not_tunnel_frictionless(speed):
     zmin, vz = _closest_approach(scene_from_dict(pane_scene(speed, effects=("rigid",), friction=0.0), "pane"))
     assert zmin > 0.0 and vz > 0.0
@@ -152,7 +152,7 @@ def test_ball_does_not_tunnel_frictionless(speed):
                    "1.1 cm) at >= 120 m/s slides between the boundary spheres (115, r 0.5-2 cm) of a one-tet-thick "
                    "pane of 2 cm tets and ends behind it: the sphere cover of a thin pane has gaps and the "
                    "speculative contacts are per sphere pair")
-@pytest.mark.parametrize("speed", [120.0, 200.0])
+@pytest.mark.parametrize("speed", [200.0])
 def test_ball_does_not_tunnel_frictionless_above_the_top_speed(speed):
     zmin, vz = _closest_approach(scene_from_dict(pane_scene(speed, effects=("rigid",), friction=0.0), "pane"))
     assert zmin > 0.0 and vz > 0.0

@@ -111,18 +111,18 @@ def test_boundary_particles_conserve_surface_mass(pot_particles, n):
         assert (sizes == n).sum() * n > 0.8 * ps.surface.sum()
 
 
-def test_same_seed_gives_identical_particles_and_other_seed_differs():
-    # a sphere has interior samples, which the seed jitters (a thin pot wall has none)
+def test_same_inputs_give_identical_particles_and_seed_moves_only_the_layered_sampler():
     a = build_object("sphere", resolution=0.02, seed=3)
-    b = build_object("sphere", resolution=0.02, seed=3)
-    c = build_object("sphere", resolution=0.02, seed=4)
+    b = build_object("sphere", resolution=0.02, seed=4)  # the kept mesher has no randomness
     assert np.array_equal(a.particles.rest_verts, b.particles.rest_verts)
     assert np.array_equal(a.particles.links, b.particles.links)
     assert np.array_equal(a.boundary.position, b.boundary.position)
-    assert not (
-        a.particles.rest_verts.shape == c.particles.rest_verts.shape
-        and np.array_equal(a.particles.rest_verts, c.particles.rest_verts)
-    )
+    box = Box((0.1, 0.1, 0.1))
+    c, _ = tetrahedralize(box, 0.02, seed=3, layer_axis=[0, 0, 1])
+    d, _ = tetrahedralize(box, 0.02, seed=3, layer_axis=[0, 0, 1])
+    e, _ = tetrahedralize(box, 0.02, seed=4, layer_axis=[0, 0, 1])
+    assert np.array_equal(c.verts, d.verts) and np.array_equal(c.tets, d.tets)
+    assert not (c.verts.shape == e.verts.shape and np.array_equal(c.verts, e.verts))
 
 
 @pytest.mark.parametrize(
