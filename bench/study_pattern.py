@@ -143,7 +143,7 @@ def run(quick: bool, only: str | None = None) -> dict:
         toughness=[(g, pieces(p, strike(p, 3.0 * v1, 4, material=glass(toughness=g))))
                    for g in (GLASS_GC, 2 * GLASS_GC, 4 * GLASS_GC)],
     )
-    plate = pane(thickness=0.001)
+    plate = pane(thickness=0.001, resolution=0.005)  # tets at most 5x as wide as the plate is thick
     speeds = [5.0, 20.0, 80.0, 320.0]
     auto = [(v, int(strike(plate, v, "auto", material=pmma(), point=(0.001, 0.002, 0.0005)).members.size))
             for v in speeds]

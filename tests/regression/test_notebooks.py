@@ -17,7 +17,9 @@ _spec.loader.exec_module(notebook_tool)
 
 LESSONS = ["01_kernels_wpca", "02_impact_stress", "03_algorithm1", "04_subdivision", "05_accuracy_cost",
            "06_star_cracks"]
-QUICK = set(LESSONS)  # each runs in under 30 s here (10-27 s); one that grows past a minute goes to the slow pass
+# lessons run in the default pass; the others in the slow pass (CI runs both). Lessons 3 and 4 take
+# 30-60 s since the Netgen meshes (issue 18), and the default pass had grown past 13 minutes.
+QUICK = {"01_kernels_wpca", "02_impact_stress", "05_accuracy_cost", "06_star_cracks"}
 
 
 def test_every_lesson_is_there_stored_clean_and_ends_with_its_known_answer():

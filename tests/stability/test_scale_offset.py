@@ -51,7 +51,7 @@ def slab_scene(mesh: str, units: str, offset=(0.0, 0.0, 0.0)) -> dict:
             {"name": "slab", "mesh": mesh, "units": units, "material": "glass", "resolution": 0.02,
              "position": at(0.0, 0.3, 0.0), "static": True, "held_border": 0.02},
             {"name": "ball", "shape": {"type": "sphere", "radius": 0.02}, "material": "steel", "resolution": 0.012,
-             "position": at(0.01, 0.31, 0.04), "velocity": [0.0, 0.0, -20.0], "breakable": False},  # splits the slab
+             "position": at(0.01, 0.31, 0.04), "velocity": [0.0, 0.0, -15.0], "breakable": False},  # splits the slab
         ],
         "colliders": [{"type": "plane", "normal": [0.0, 1.0, 0.0], "point": at(0.0, 0.0, 0.0)}],
     }
