@@ -186,28 +186,28 @@ def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
 
 
 class MeshSolid:
-    """A validated surface mesh seen as a solid for the tetrahedralizer (geometry.shapes.Shape API).
+    """A validated surface mesh seen as a solid (geometry.shapes.Shape API).
 
-    Inside test by ray parity (trimesh, rtree); distance to the surface approximated by the
-    nearest of dense surface samples, which is what the sampler needs (keep interior samples a
-    fraction of h away from the surface).
+    Netgen meshes its triangles (`reference_mesh`); `thickness` / `thinnest_wall` measure its walls.
+    `sdf` and `surface_samples` serve only the layered Delaunay sampler: inside test by ray parity
+    (trimesh, rtree), distance approximated by the nearest of dense surface samples, built on first use.
     """
 
     regions = 1
 
     def __init__(self, surface: SurfaceMesh, name: str | None = None) -> None:
-        from scipy.spatial import cKDTree
-
         self.surface = surface
         self.name = name or os.path.basename(surface.source)
         self._mesh = surface.trimesh()
-        edge = np.linalg.norm(np.diff(self._mesh.vertices[self._mesh.edges], axis=1)[:, 0], axis=1)
-        dense = self._mesh.sample(max(20000, len(self._mesh.faces) * 4), return_index=False, seed=0)
-        self._tree = cKDTree(np.concatenate([self._mesh.vertices, dense]))
-        self._edge = float(np.median(edge))
+        self._tree = None  # cKDTree of dense surface samples, built by the first `sdf`
         self._wall = None  # (S,) m: sampled wall thicknesses, measured on first use
 
     def sdf(self, points: np.ndarray) -> np.ndarray:
+        if self._tree is None:
+            from scipy.spatial import cKDTree
+
+            dense = self._mesh.sample(max(20000, len(self._mesh.faces) * 4), return_index=False, seed=0)
+            self._tree = cKDTree(np.concatenate([self._mesh.vertices, dense]))
         d, _ = self._tree.query(points)
         inside = self._mesh.contains(points)
         return np.where(inside, -d, d)
