@@ -183,33 +183,47 @@ def _stop(procs: list[subprocess.Popen]) -> None:
             p.wait(timeout=30)
 
 
-@pytest.fixture
-def dask_cluster(tmp_path):
-    """`dask scheduler` and two `dask worker --nthreads 1` processes on 127.0.0.1; yields the address and
-    {worker name: process}; every process is stopped at teardown."""
+def start_cluster(folder: Path, address: str, names: tuple[str, ...], tls: list[str], security=None):
+    """`dask scheduler` and one `dask worker --nthreads 1` process per name on 127.0.0.1, as separate
+    processes (`tls`: the scheduler's and workers' --tls-* options). Returns ({worker name: process}, every
+    process, the log file) once the workers have joined."""
     from distributed import Client
 
-    address = f"tcp://127.0.0.1:{free_port()}"
-    logs = open(tmp_path / "dask.log", "w")  # noqa: SIM115 - closed in teardown
-    procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-                               "--no-dashboard"], cwd=tmp_path, env=ENV, stdout=logs, stderr=logs)]
+    logs = open(folder / "dask.log", "w")  # noqa: SIM115 - closed by the caller
+    port = address.rsplit(":", 1)[1]
+    procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard", *tls]
+                              + (["--protocol", "tls"] if tls else []), cwd=folder, env=ENV, stdout=logs, stderr=logs)]
     workers = {}
     try:
-        for name in ("wA", "wB"):
+        for name in names:
             workers[name] = subprocess.Popen(
                 [DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--name", name, "--host", "127.0.0.1",
-                 "--no-dashboard"], cwd=tmp_path, env=ENV, stdout=logs, stderr=logs)
+                 "--no-dashboard", *tls], cwd=folder, env=ENV, stdout=logs, stderr=logs)
             procs.append(workers[name])
         deadline = time.monotonic() + 120
         while True:
             try:
-                with Client(address, timeout=10) as client:
-                    client.wait_for_workers(2, timeout=110)
+                with Client(address, timeout=10, security=security) as client:
+                    client.wait_for_workers(len(names), timeout=110)
                 break
             except (OSError, TimeoutError):
                 if time.monotonic() > deadline:
                     raise
                 time.sleep(1)
+    except BaseException:
+        _stop(procs)
+        logs.close()
+        raise
+    return workers, procs, logs
+
+
+@pytest.fixture
+def dask_cluster(tmp_path):
+    """A plain-TCP scheduler and two workers (wA, wB); yields the address and {worker name: process};
+    every process is stopped at teardown."""
+    address = f"tcp://127.0.0.1:{free_port()}"
+    workers, procs, logs = start_cluster(tmp_path, address, ("wA", "wB"), [])
+    try:
         yield address, workers
     finally:
         _stop(procs)
@@ -238,3 +252,73 @@ def test_sweep_on_a_dask_scheduler_survives_a_killed_worker(dask_cluster, tmp_pa
     points = [json.loads(r["overrides"]) for r in rows]
     assert [r["state_hash"] for r in rows] == direct_hashes(SCENE, 30, points)
 
+    again = run_sweep(spec)  # the surviving worker is still there: the rerun finds every point done
+    assert (again.computed, again.skipped, again.ok) == (0, 4, 4)
+    assert read_rows(tmp_path / "sweep") == rows
+
+
+# ---------------------------------------------------------------------------------------- TLS
+def write_tls_files(folder: Path) -> dict[str, str]:
+    """A throw-away certificate authority and one certificate for 127.0.0.1 signed by it (PEM files),
+    used by the scheduler, the worker and the client alike. Returns {"ca", "cert", "key"}: paths."""
+    import datetime
+    import ipaddress
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    now = datetime.datetime.now(datetime.timezone.utc)
+    life = (now - datetime.timedelta(minutes=5), now + datetime.timedelta(days=1))
+
+    def build(subject, issuer, public_key, signer, ca: bool):
+        b = (x509.CertificateBuilder().subject_name(subject).issuer_name(issuer).public_key(public_key)
+             .serial_number(x509.random_serial_number()).not_valid_before(life[0]).not_valid_after(life[1])
+             .add_extension(x509.BasicConstraints(ca=ca, path_length=None), critical=True))
+        if not ca:
+            b = b.add_extension(x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+                                critical=False)
+        return b.sign(signer, hashes.SHA256())
+
+    ca_key, key = ec.generate_private_key(ec.SECP256R1()), ec.generate_private_key(ec.SECP256R1())
+    ca_name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "anisofrac test CA")])
+    me = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "127.0.0.1")])
+    ca_cert = build(ca_name, ca_name, ca_key.public_key(), ca_key, ca=True)
+    cert = build(me, ca_name, key.public_key(), ca_key, ca=False)
+    files = {"ca": folder / "ca.pem", "cert": folder / "cert.pem", "key": folder / "key.pem"}
+    files["ca"].write_bytes(ca_cert.public_bytes(serialization.Encoding.PEM))
+    files["cert"].write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    files["key"].write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                               serialization.NoEncryption()))
+    return {k: str(v) for k, v in files.items()}
+
+
+@pytest.mark.slow
+def test_sweep_on_a_tls_scheduler(tmp_path):
+    """`main.py sweep --scheduler tls://... --tls-ca/--tls-cert/--tls-key` against a scheduler and a worker
+    that accept TLS only: the row is the direct run's; a client without the certificates gets a one-line
+    error naming --scheduler and nothing is computed."""
+    tls = write_tls_files(tmp_path)
+    address = f"tls://127.0.0.1:{free_port()}"
+    _, procs, logs = start_cluster(tmp_path, address, ("wT",),
+                                   ["--tls-ca-file", tls["ca"], "--tls-cert", tls["cert"], "--tls-key", tls["key"]],
+                                   security=make_security(tls["ca"], tls["cert"], tls["key"]))
+    grid = "materials.clay.density=2500"
+    try:
+        plain = subprocess.run([PY, "main.py", "sweep", SCENE, "--grid", grid, "--frames", str(FRAMES),
+                                "--scheduler", address.replace("tls://", "tcp://"), "--out", str(tmp_path / "plain")],
+                               cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=300)
+        sweep = subprocess.run([PY, "main.py", "sweep", SCENE, "--grid", grid, "--frames", str(FRAMES),
+                                "--scheduler", address, "--tls-ca", tls["ca"], "--tls-cert", tls["cert"],
+                                "--tls-key", tls["key"], "--out", str(tmp_path / "tls")],
+                               cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=600)
+    finally:
+        _stop(procs)
+        logs.close()
+    assert plain.returncode == 2 and plain.stderr.strip().splitlines()[-1].startswith("error: --scheduler")
+    assert not (tmp_path / "plain" / "runs.parquet").exists()
+    assert sweep.returncode == 0, sweep.stderr
+    rows = read_rows(tmp_path / "tls")
+    assert [(r["status"], r["worker"]) for r in rows] == [("ok", "wT")]
+    assert rows[0]["state_hash"] == direct_hashes(SCENE, FRAMES, [[grid]])[0]
