@@ -17,7 +17,7 @@ import numpy as np
 
 from core.errors import ConfigError, MeshError
 from geometry.layered_delaunay import layered_delaunay
-from geometry.netgen_mesher import CURVATURE_SAFETY, mesh_solid, mesh_surface
+from geometry.netgen_mesher import CURVATURE_SAFETY, SolidMesher, mesh_surface
 from geometry.occ_solids import occ_solid
 from geometry.tetmesh import TetMesh, quality_report, signed_volumes
 
@@ -79,8 +79,9 @@ def _finish(shape, verts, tets, name: str, reference_volume, extras: dict, h: fl
 
 def _mesh_exact_solid(shape, solid, h: float, name: str):
     """Netgen on the exact solid, with more elements per radius of curvature until the bounds are met."""
+    mesher = SolidMesher(solid, h, name)
     for k, safety in enumerate(CURVATURE_SAFETY):
-        verts, tets = mesh_solid(solid, h, name, safety)
+        verts, tets = mesher.mesh(safety)
         mesh, report = _finish(shape, verts, tets, name, float(solid.mass),
                                dict(mesher="netgen (exact solid)", curvature_safety=safety), h)
         try:

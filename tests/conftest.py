@@ -27,7 +27,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    import tempfile
+
     from core.runtime import init_taichi
+    from geometry.mesh_cache import CACHE_ENV
+
+    # the tet cache of this session (its subprocesses inherit it): no test reads a user's cache
+    os.environ[CACHE_ENV] = tempfile.mkdtemp(prefix="anisofrac-test-cache-")
 
     info = init_taichi(arch=config.getoption("--arch"), precision="f64", threads=1)
     config._anisofrac_runtime = info  # type: ignore[attr-defined]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -13,6 +14,7 @@ import trimesh
 
 from core.errors import MeshError
 from geometry.build import build_object
+from geometry.mesh_cache import CACHE_ENV
 from geometry.tetmesh import validate_tets
 from geometry.tetrahedralize import QUALITY_BOUNDS, check_quality
 
@@ -62,10 +64,61 @@ def test_the_same_shape_gives_the_same_tets_in_another_process():
     code = ("import sys, hashlib; sys.path.insert(0, '.'); from geometry.build import build_object; "
             "g = build_object('pot'); m = g.mesh; "
             "print(hashlib.sha256(m.verts.tobytes() + m.tets.tobytes()).hexdigest())")
-    runs = [subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
-            for _ in range(2)]
+    runs = [subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300,
+                           env={**os.environ, CACHE_ENV: "off"}) for _ in range(2)]  # Netgen itself, twice
     assert runs[0].returncode == 0, runs[0].stderr
     assert runs[0].stdout == runs[1].stdout
+
+
+def _ball_meshes(tmp_path, cache: str, drop_second: bool = False) -> list[str]:
+    """Hashes of a 4 cm ball's tets at curvature safety 2 then 3 on one solid (the pet's ball needs
+    both), with the tet cache at `cache`; `drop_second` deletes the safety-3 entry first."""
+    import hashlib
+
+    import netgen.occ as occ
+
+    from geometry.mesh_cache import cache_key
+    from geometry.netgen_mesher import GRADING, SolidMesher
+
+    os.environ[CACHE_ENV] = cache
+    mesher = SolidMesher(occ.Sphere(occ.Pnt(0, 0, 0), 0.03), 0.012, "ball")
+    if drop_second:
+        key = cache_key("occ-solid", mesher.description, maxh=0.012, grading=GRADING, curvaturesafety=3.0,
+                        tried_before=(2.0,))
+        (Path(cache) / "tets" / f"{key}.npz").unlink()
+    out = []
+    for safety in (2.0, 3.0):
+        verts, tets = mesher.mesh(safety)
+        out.append(hashlib.sha256(verts.tobytes() + tets.tobytes()).hexdigest())
+    return out
+
+
+def test_cached_tets_equal_netgen_on_a_fresh_solid_whatever_the_cache_holds(tmp_path, monkeypatch):
+    monkeypatch.setenv(CACHE_ENV, "off")
+    reference = _ball_meshes(tmp_path, "off")
+    cache = str(tmp_path / "cache")
+    assert _ball_meshes(tmp_path, cache) == reference  # misses: meshed and stored
+    assert len(list((tmp_path / "cache" / "tets").glob("*.npz"))) == 2
+    assert _ball_meshes(tmp_path, cache) == reference  # hits
+    # a hit at safety 2 and a miss at 3: the miss replays the try at 2 on the solid before meshing at 3
+    assert _ball_meshes(tmp_path, cache, drop_second=True) == reference
+    for entry in (tmp_path / "cache" / "tets").glob("*.npz"):  # unreadable entries are meshed again
+        entry.write_bytes(b"not an npz")
+    assert _ball_meshes(tmp_path, cache) == reference
+    assert reference[0] != reference[1]
+
+
+def test_a_sweep_point_reads_its_tets_from_the_cache(tmp_path, monkeypatch):
+    """The second build of a shape does not run Netgen (the cache is what makes sweeps scale)."""
+    import geometry.netgen_mesher as ng
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    first = build_object("pane", shape_params={"size": [0.2, 0.2, 0.01]}, resolution=0.02)
+    calls = []
+    monkeypatch.setattr(ng.SolidMesher, "_generate", lambda self, safety: calls.append(safety))
+    again = build_object("pane", shape_params={"size": [0.2, 0.2, 0.01]}, resolution=0.02)
+    assert calls == []
+    assert np.array_equal(first.mesh.verts, again.mesh.verts) and np.array_equal(first.mesh.tets, again.mesh.tets)
 
 
 def test_a_mesh_below_the_bounds_is_refused_naming_the_figure():
