@@ -125,9 +125,15 @@ def dataset_files(sim, stats: dict, task: dict) -> dict:
     return files
 
 
+DATASET_SCHEMA = Path(__file__).resolve().parents[1] / "docs" / "schemas" / "sweep_dataset.schema.json"
+
+
 def write_dataset(out: Path, key: str, files: dict) -> Path:
+    """OUT/dataset/<key>/ with the run's files, and OUT/dataset/schema.json (the layout's JSON Schema)."""
     folder = out / "dataset" / key
     folder.mkdir(parents=True, exist_ok=True)
+    if not (out / "dataset" / "schema.json").exists():
+        atomic_write_bytes(out / "dataset" / "schema.json", DATASET_SCHEMA.read_bytes())
     for name, data in files.items():
         atomic_write_bytes(folder / name, data)
     return folder

@@ -162,6 +162,18 @@ def test_plots_summary_and_dataset(local_sweep):
         events = json.loads((folder / "cracks.json").read_text())["events"]
         assert events[0]["scripted"] and events[0]["cracks"][0]["normal"] == [0.0, 1.0, 0.0]
         assert (folder / "fragments.ply").read_bytes().startswith(b"ply")
+    # the layout is the one its JSON Schema documents (copied beside the runs)
+    import jsonschema
+
+    schema = json.loads((out / "dataset" / "schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    for row in read_rows(out):
+        folder = out / "dataset" / row["key"]
+        files = {name: json.loads((folder / name).read_text()) for name in ("cracks.json", "params.json")}
+        jsonschema.validate(files, schema, cls=jsonschema.Draft202012Validator)
+    bad = dict(files, **{"params.json": {**files["params.json"], "frames": 0}})
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(bad, schema, cls=jsonschema.Draft202012Validator)
 
 
 # ---------------------------------------------------------------------------------------- a real cluster
