@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 
 from core.errors import ConfigError
-from core.output import atomic_write_bytes, atomic_write_text
+from core.output import atomic_write_bytes, atomic_write_text, temporary_beside
 
 RUNS_FILE = "runs.parquet"
 
@@ -190,8 +190,7 @@ class Rows:
     def save(self) -> None:
         import pyarrow.parquet as pq
 
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
-        os.close(fd)
+        tmp = temporary_beside(self.path)
         try:
             pq.write_table(self.table(), tmp)
             os.replace(tmp, self.path)

@@ -15,12 +15,12 @@ Frames are (H, W, 3) uint8 arrays, row 0 at the top (what the renderers return).
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from core.errors import ConfigError
+from core.output import temporary_beside
 
 VIDEO_FORMATS = ("mp4", "gif", "none")
 FRAME_PATTERN = "frame_{:05d}.png"
@@ -37,9 +37,7 @@ def _check_frame(img: np.ndarray, size: tuple[int, int] | None, where: str) -> n
 
 
 def _tmp_name(path: Path, suffix: str) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{suffix}", dir=path.parent)
-    os.close(fd)
-    return Path(tmp)
+    return temporary_beside(path, f".tmp{suffix}")
 
 
 def write_png(path: str | Path, img: np.ndarray) -> Path:

@@ -8,12 +8,11 @@ body id, kind (0 physical, 1 subdivided), mass and volume, for ParaView. Atomic 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from core.output import atomic_write_text
+from core.output import atomic_write_text, temporary_beside
 
 
 def body_frames(world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -87,8 +86,7 @@ def write_particles_vtu(world, path: Path) -> Path:
         body=ps.body[ids].astype(np.int32), kind=ps.kind[ids].astype(np.int32),
         mass=ps.mass[ids], volume=ps.volume[ids]))
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".vtu", dir=path.parent)
-    os.close(fd)
+    tmp = temporary_beside(path, ".vtu")
     meshio.write(tmp, m)
     os.replace(tmp, path)
     return path

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from core.errors import ConfigError
-from render.writers import GifWriter, Mp4Writer, PngSequenceWriter, make_writer
+from render.writers import GifWriter, Mp4Writer, PngSequenceWriter, make_writer, write_png
 
 
 def _frames(n: int, w: int, h: int) -> list[np.ndarray]:
@@ -122,3 +122,22 @@ def test_make_writer_and_errors(tmp_path):
         w.write(_frames(1, 22, 10)[0])
     with pytest.raises(ConfigError, match="uint8"):
         w.write(np.zeros((10, 20, 3), np.float32))
+
+
+def test_outputs_get_a_plain_files_mode_not_the_temporary_names(tmp_path):
+    """Written under a temporary name (mkstemp: mode 0600) and renamed: the output still gets the
+    mode the umask gives a plain file, so other users of a shared server can read the frames."""
+    import os
+    import stat
+
+    from core.output import atomic_write_json
+
+    old = os.umask(0o022)
+    try:
+        write_png(tmp_path / "f.png", np.zeros((4, 6, 3), np.uint8))
+        atomic_write_json(tmp_path / "stats.json", {"a": 1})
+    finally:
+        os.umask(old)
+    for name in ("f.png", "stats.json"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644, name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "stats.json"]
