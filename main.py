@@ -22,8 +22,14 @@ DEFAULT_SCENE = "pot"
 
 
 def _init(args: argparse.Namespace) -> None:
+    import os
+
+    from core.errors import ConfigError
     from core.runtime import init_taichi
 
+    cores = os.cpu_count() or 1
+    if not 1 <= args.threads <= cores:
+        raise ConfigError("--threads", args.threads, f"an integer from 1 to {cores} (this machine's cores)")
     info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
     print(f"taichi: arch={info.arch} precision={info.precision} device={info.device}", file=sys.stderr)
 
@@ -84,6 +90,17 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    from core.errors import ConfigError
+
+    if args.frames is not None and args.frames < 1:
+        raise ConfigError("--frames", args.frames, "an integer >= 1")
+    if args.scenes:
+        from bench.bench_scenes import main as scenes_main
+
+        return scenes_main((["--only", args.only] if args.only else []) + (["--readme"] if args.readme else [])
+                           + (["--frames", str(args.frames)] if args.frames else []))
+    if args.only or args.readme or args.frames:
+        raise ConfigError("bench", "--only/--readme/--frames", "options of `bench --scenes`")
     from bench.report import main as bench_main
 
     return bench_main(["--quick"] if args.quick else [])
@@ -187,7 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
         q.add_argument("--arch", default="cpu", choices=["cpu", "cuda", "auto"], help="Taichi backend (default cpu)")
         q.add_argument("--precision", default="f32", choices=["f32", "f64"], help="floating point (default f32)")
         q.add_argument("--threads", type=int, default=1,
-                       help="CPU threads (default 1: bitwise reproducible; 0 = all cores)")
+                       help="CPU threads, 1 to the machine's cores (default 1: bitwise reproducible)")
         q.add_argument("--set", action="append", metavar="KEY.PATH=VALUE",
                        help="override a scene value, validated like the file (repeatable)")
 
@@ -252,8 +269,13 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--tls-key", default=None, help="client private key (PEM) for a TLS scheduler")
     w.set_defaults(func=_cmd_sweep)
 
-    b = sub.add_parser("bench", help="the accuracy-vs-cost study; writes docs/report/")
+    b = sub.add_parser("bench", help="the accuracy-vs-cost study (docs/report/), or --scenes: the paper's scenes "
+                       "as run by default, beside Table 2")
     b.add_argument("--quick", action="store_true", help="a reduced study (minutes)")
+    b.add_argument("--scenes", action="store_true", help="time every paper scene as `main.py run` runs it")
+    b.add_argument("--only", default=None, help="with --scenes: comma-separated scenes")
+    b.add_argument("--frames", type=int, default=None, help="with --scenes: frames per run")
+    b.add_argument("--readme", action="store_true", help="with --scenes: write the table into README.md")
     b.set_defaults(func=_cmd_bench)
     return p
 

@@ -75,7 +75,8 @@ def _without_timings(obj):
     return obj
 
 
-def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: bool = False) -> dict:
+def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: bool = False,
+                  frame_wall_ms: list[float] | None = None, first_frame_unix: float | None = None) -> dict:
     """stats.json: everything but the `timings` section is reproducible for a given scene and seed."""
     rt = runtime()
     counts = world.counts()
@@ -106,6 +107,9 @@ def collect_stats(world, wall_seconds: float, frames_done: int, interrupted: boo
             "table2_events": event_times,
             "stage_totals_ms": {k: round(v * 1e3, 3) for k, v in world.timers.total.items()},
             "per_frame_ms": world.timers.frames,
+            # wall time of each whole frame as `main.py run` does it (simulation, drawing, exports)
+            "frame_wall_ms": [round(t, 3) for t in frame_wall_ms or []],
+            "first_frame_unix": first_frame_unix,  # time.time() when the first frame was done
         },
     }
 
@@ -159,8 +163,11 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
 
         recorder = AnimationRecorder(world, cfg.scene.fps)
         recorder.record(world, 0)
+    frame_wall_ms: list[float] = []
+    first_frame_unix = None
     try:
         for _ in range(frames):
+            t_frame = time.perf_counter()
             world.step_frame()
             done += 1
             if renderer is not None:
@@ -171,6 +178,9 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
                 from sim.export_frames import write_frame_exports
 
                 write_frame_exports(world, out, done - 1, opts.meshes, opts.vtu)
+            frame_wall_ms.append((time.perf_counter() - t_frame) * 1e3)
+            if first_frame_unix is None:
+                first_frame_unix = time.time()
             bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
             bar.update(1)
             if opts.until_settled and settle.tick(world):
@@ -183,7 +193,7 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
         wall = time.perf_counter() - t0
         if renderer is not None:
             renderer.close()
-        stats = collect_stats(world, wall, done, interrupted)
+        stats = collect_stats(world, wall, done, interrupted, frame_wall_ms, first_frame_unix)
         stats["stopped"] = stopped
         if recorder is not None:
             stats["exports"] = write_animation(recorder, out, opts.export)

@@ -37,6 +37,12 @@ def test_default_scene_breaks_the_pot_and_writes_its_files(tmp_path):
     assert len(list((out / "frames").glob("frame_*.png"))) == cfg.scene.test_frames
     ev = stats["timings"]["table2_events"][0]
     assert ev["stress_analysis_ms"] > 0 and ev["particle_subdivision_ms"] > 0 and ev["crack_generation_ms"] > 0
+    # the whole event holds its parts; one wall time per frame, each at least the frame's simulation
+    assert ev["whole_event_ms"] >= ev["stress_analysis_ms"] + ev["particle_subdivision_ms"]
+    walls, sims = stats["timings"]["frame_wall_ms"], stats["timings"]["per_frame_ms"]
+    assert len(walls) == len(sims) == cfg.scene.test_frames
+    assert all(w >= 0.99 * sum(s.values()) for w, s in zip(walls, sims))
+    assert stats["timings"]["first_frame_unix"] > 0
 
 
 def test_existing_output_folder_is_not_overwritten(tmp_path):

@@ -3,6 +3,7 @@ written. Overrides on the command line are validated like the file."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -135,11 +136,15 @@ def test_command_line_errors_are_clear(tmp_path):
         (["run", "no_such_scene"], "no_such_scene"),
         (["run", "rigid_pile", "--arch", "cuda", "--out", str(tmp_path / "a")], "cuda"),
         (["run", "rigid_pile", "--out", "/proc/forbidden/x"], "--out"),
+        (["run", "rigid_pile", "--threads", "0", "--out", str(tmp_path / "b")], "--threads"),
+        (["run", "rigid_pile", "--threads", str((os.cpu_count() or 1) + 1), "--out", str(tmp_path / "c")],
+         "this machine's cores"),
     ]
     for args, needle in cases:
         r = subprocess.run([sys.executable, "main.py", *args], cwd=ROOT, capture_output=True, text=True, timeout=120)
         assert r.returncode == 2, (args, r.stderr)
         assert needle in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()
 
 
 def test_scene_dict_round_trip():

@@ -1,0 +1,178 @@
+"""The paper's scenes as a user runs them, beside the paper's Table 2 (issue 16, "An honest table").
+
+    .venv/bin/python main.py bench --scenes [--only pot,glass_r3] [--frames N] [--readme]
+    .venv/bin/python bench/bench_scenes.py   (the same)
+
+Each scene runs as its own `python main.py run SCENE` process with the scene's default settings
+(CPU, f32, one thread, the default renderer and size, until the pieces rest), once with frames drawn
+and once with `--renderer none`; nothing is warmed up beforehand except Taichi's own kernel cache
+and the tet cache, which any earlier run fills. From each run's stats.json and the process:
+
+- per fracture event (means over the events of the drawn run): stress analysis, particle
+  subdivision and crack generation as the paper's Table 2 splits them, and the whole event
+  (analysis to split);
+- steady frame rate: frames per second over the frames after the first 10% of the run (the start,
+  the impact and its events are in those), drawn and not drawn, and the average over every frame;
+- the longest frame after the first one (the first compiles every kernel), drawn;
+- build time (World), start to first frame (process launch to the first frame done, drawn) and
+  the process's peak resident memory (drawn run).
+
+The table is printed with the machine described; `--readme` also replaces the README's table
+between its markers, so the README shows this output and nothing hand-edited.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ("pot", "pot_basic", "glass_r3", "glass_r5", "taichi", "pet", "pots")
+PAPER_TABLE2 = {  # paper Table 2 (Xeon W3530 + GTX 760): stress analysis, subdivision, crack generation (ms), fps
+    "pot": (86, 2869, 1505, 10.2), "pot_basic": (86, 2869, 1505, 10.2), "glass_r3": (91, 1593, 329, 36.8),
+    "glass_r5": (91, 1593, 329, 36.8), "pots": (588, 12923, 11037, 1.3), "pet": (341, 86784, 3386, 1.2),
+    "taichi": (649, 12330, 4010, 7.6),
+}
+STEADY_SKIP = 0.1  # fraction of a run's frames left out of the steady frame rate (start, impact, events)
+README_BEGIN = "<!-- bench --scenes: begin -->"
+README_END = "<!-- bench --scenes: end -->"
+
+
+def run_scene(scene: str, drawn: bool, frames: int | None, out: Path) -> dict:
+    """One `main.py run` process; returns its stats.json with the launch time and the peak memory."""
+    cmd = [sys.executable, str(ROOT / "main.py"), "run", scene, "--out", str(out), "--overwrite",
+           "--no-progress", "--video", "none"]
+    if not drawn:
+        cmd += ["--renderer", "none"]
+    if frames:
+        cmd += ["--frames", str(frames)]
+    launched = time.time()
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _, status, usage = os.wait4(proc.pid, 0)
+    stdout, stderr = proc.stdout.read(), proc.stderr.read()
+    proc.stdout.close()
+    proc.stderr.close()
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{stderr.strip()[-2000:]}")
+    stats = json.loads((out / "stats.json").read_text())
+    stats["_bench"] = dict(launched=launched, peak_mb=usage.ru_maxrss / 1024.0, stdout=stdout)
+    return stats
+
+
+def _mean(values: list[float]) -> float | None:
+    return statistics.fmean(values) if values else None
+
+
+def steady_fps(frame_ms: list[float]) -> float | None:
+    """Frames per second over the frames after the first STEADY_SKIP of the run."""
+    tail = frame_ms[max(1, int(len(frame_ms) * STEADY_SKIP)):]
+    return 1e3 * len(tail) / sum(tail) if tail and sum(tail) > 0 else None
+
+
+def summarise(scene: str, drawn: dict, bare: dict) -> dict:
+    t, tb = drawn["timings"], bare["timings"]
+    # stats.json keeps times apart from the reproducible part: timings.table2_events[i] is events[i]'s
+    events = [tm for e, tm in zip(drawn["events"], t["table2_events"]) if not e.get("scripted")]
+    frame_ms = t["frame_wall_ms"]
+    return dict(
+        scene=scene,
+        frames=drawn["frames"],
+        events=len(events),
+        stress_ms=_mean([e["stress_analysis_ms"] for e in events]),
+        subdivision_ms=_mean([e["particle_subdivision_ms"] for e in events]),
+        crack_ms=_mean([e["crack_generation_ms"] for e in events]),
+        event_ms=_mean([e["whole_event_ms"] for e in events if "whole_event_ms" in e]),
+        first_event_ms=events[0].get("whole_event_ms") if events else None,
+        fps_drawn=steady_fps(frame_ms),
+        fps_bare=steady_fps(tb["frame_wall_ms"]),
+        fps_average=drawn["frames"] / t["wall_s"] if t["wall_s"] else None,
+        longest_ms=max(frame_ms[1:]) if len(frame_ms) > 1 else None,
+        build_s=t["build_s"],
+        first_frame_s=t["first_frame_unix"] - drawn["_bench"]["launched"] if t["first_frame_unix"] else None,
+        peak_mb=drawn["_bench"]["peak_mb"],
+        pieces=drawn["table1"].get("fragments"),
+    )
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} "
+            f"{platform.release()}; CPU backend, f32, 1 thread, default size and renderer")
+
+
+def _f(x, fmt: str = "{:.1f}") -> str:
+    return "-" if x is None else fmt.format(x)
+
+
+def table(rows: list[dict]) -> str:
+    head = ("| scene | frames | events | stress analysis ms (paper) | subdivision ms (paper) | crack generation ms "
+            "(paper) | whole event ms (first) | fps drawn | fps not drawn (paper) | average fps | longest frame ms "
+            "| build s | start to first frame s | peak MB |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        p = PAPER_TABLE2[r["scene"]]
+        lines.append(
+            f"| {r['scene']} | {r['frames']} | {r['events']} | {_f(r['stress_ms'])} ({p[0]:,}) | "
+            f"{_f(r['subdivision_ms'])} ({p[1]:,}) | {_f(r['crack_ms'])} ({p[2]:,}) | "
+            f"{_f(r['event_ms'])} ({_f(r['first_event_ms'], '{:.0f}')}) | {_f(r['fps_drawn'])} | "
+            f"{_f(r['fps_bare'])} ({p[3]}) | {_f(r['fps_average'])} | {_f(r['longest_ms'], '{:.0f}')} | "
+            f"{_f(r['build_s'], '{:.2f}')} | {_f(r['first_frame_s'], '{:.2f}')} | {_f(r['peak_mb'], '{:.0f}')} |")
+    return "\n".join(lines)
+
+
+def write_readme(text: str, readme: Path = ROOT / "README.md") -> None:
+    from core.output import atomic_write_text
+
+    body = readme.read_text()
+    if README_BEGIN not in body or README_END not in body:
+        raise SystemExit(f"{readme}: the markers {README_BEGIN} / {README_END} are missing")
+    head, rest = body.split(README_BEGIN, 1)
+    _, tail = rest.split(README_END, 1)
+    atomic_write_text(readme, f"{head}{README_BEGIN}\n{text}\n{README_END}{tail}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--only", default=",".join(SCENES), help="comma-separated scenes (default: every paper scene)")
+    p.add_argument("--frames", type=int, default=None, help="frames per run (default: the scene's, until settled)")
+    p.add_argument("--readme", action="store_true", help="also write the table into README.md")
+    args = p.parse_args(argv)
+    scenes = [s.strip() for s in args.only.split(",") if s.strip()]
+    unknown = [s for s in scenes if s not in PAPER_TABLE2]
+    if unknown:
+        print(f"error: --only {','.join(unknown)}: not a paper scene (one of {', '.join(SCENES)})", file=sys.stderr)
+        return 2
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench_scenes_") as tmp:
+        for scene in scenes:
+            print(f"{scene}: drawn ...", file=sys.stderr, flush=True)
+            drawn = run_scene(scene, True, args.frames, Path(tmp) / f"{scene}_drawn")
+            print(f"{scene}: not drawn ...", file=sys.stderr, flush=True)
+            bare = run_scene(scene, False, args.frames, Path(tmp) / f"{scene}_bare")
+            rows.append(summarise(scene, drawn, bare))
+    text = (f"Measured by `python main.py bench --scenes` on {time.strftime('%Y-%m-%d')}: {machine()}. "
+            "Paper: Xeon W3530 + GTX 760 (Table 2; its frame rate counts no drawing).\n\n" + table(rows))
+    print(text)
+    if args.readme:
+        write_readme(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,56 @@
+"""bench/bench_scenes.py (`main.py bench --scenes`): the table is computed from the runs' own records.
+
+The runs themselves are a benchmark (never timed in a test); here the summary of two synthetic
+stats.json records is checked against hand-computed figures, and the README writer is checked to
+replace only what lies between its markers.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from bench import bench_scenes as bs
+
+
+def stats(frame_ms: list[float], events: list[dict], scripted: list[bool] | None = None) -> dict:
+    scripted = scripted or [False] * len(events)
+    return {
+        "frames": len(frame_ms),
+        "events": [{"scripted": s} for s in scripted],
+        "table1": {"fragments": 7},
+        "timings": {"frame_wall_ms": frame_ms, "wall_s": sum(frame_ms) / 1e3, "build_s": 0.5,
+                    "table2_events": events, "first_frame_unix": 1000.0 + frame_ms[0] / 1e3},
+        "_bench": {"launched": 999.0, "peak_mb": 321.0},
+    }
+
+
+def test_summary_figures_are_the_runs_own():
+    frame_ms = [900.0] + [50.0] * 9 + [100.0] * 10  # 20 frames: the first 10% (2) are left out of "steady"
+    ev = [dict(stress_analysis_ms=10.0, particle_subdivision_ms=20.0, crack_generation_ms=30.0, whole_event_ms=70.0),
+          dict(stress_analysis_ms=2.0, particle_subdivision_ms=0.0, crack_generation_ms=4.0, whole_event_ms=9.0),
+          dict(stress_analysis_ms=0.0, particle_subdivision_ms=5.0, crack_generation_ms=5.0)]  # scripted: left out
+    r = bs.summarise("pot", stats(frame_ms, ev, [False, False, True]), stats([10.0] * 20, []))
+    assert (r["events"], r["stress_ms"], r["subdivision_ms"], r["crack_ms"]) == (2, 6.0, 10.0, 17.0)
+    assert (r["event_ms"], r["first_event_ms"]) == (39.5, 70.0)
+    assert r["fps_drawn"] == pytest.approx(1e3 * 18 / (8 * 50.0 + 10 * 100.0))
+    assert r["fps_bare"] == pytest.approx(100.0)
+    assert r["fps_average"] == pytest.approx(20 / 2.35)
+    assert r["longest_ms"] == 100.0  # after the first frame
+    assert r["first_frame_s"] == pytest.approx(1.9) and r["peak_mb"] == 321.0
+    row = bs.table([r]).splitlines()[2]
+    assert row.startswith("| pot | 20 | 2 | 6.0 (86) | 10.0 (2,869) | 17.0 (1,505) | 39.5 (70) |")
+
+
+def test_readme_table_is_replaced_between_its_markers_only(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text(f"before\n{bs.README_BEGIN}\nold table\n{bs.README_END}\nafter\n")
+    bs.write_readme("new table", readme)
+    assert readme.read_text() == f"before\n{bs.README_BEGIN}\nnew table\n{bs.README_END}\nafter\n"
+    readme.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        bs.write_readme("x", readme)
+
+
+def test_unknown_scene_is_refused_in_one_line(capsys):
+    assert bs.main(["--only", "pot,nope"]) == 2
+    assert "--only nope: not a paper scene" in capsys.readouterr().err
