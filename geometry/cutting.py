@@ -249,7 +249,10 @@ def body_mask(ps: ParticleSet, bodies: Bodies) -> np.ndarray:
     in none)."""
     if bodies is None:
         return ps.alive & (ps.body >= 0)
-    return ps.alive & np.isin(ps.body, np.asarray(list(np.atleast_1d(bodies)), dtype=np.int64))
+    ids = np.asarray(list(np.atleast_1d(bodies)), dtype=np.int64)
+    if len(ids) == 1:  # the usual case (one struck body): a comparison, not a set lookup
+        return ps.alive & (ps.body == ids[0])
+    return ps.alive & np.isin(ps.body, ids)
 
 
 def crossed_link_mask(
@@ -258,17 +261,22 @@ def crossed_link_mask(
     """(N, 4) bool over face-link slots and (E,) bool over extra links: links the crack removes.
 
     only: (N,) bool, restrict the test to links with at least one end marked (None = all links).
+    Only the particles of `bodies` are looked at, so a cut costs what the struck body holds, not
+    what the whole world holds (the Pots scene has 13 pots).
     """
     sel = body_mask(ps, bodies)
+    idx = np.flatnonzero(sel)
     # only links whose centroids lie on opposite sides can cross: filter first (cheap), then
     # run the exact, symmetric segment test on those
-    side = signed_distance(crack, ps.centroid) > 0.0
+    side = np.zeros(len(sel), dtype=bool)
+    side[idx] = signed_distance(crack, ps.centroid[idx]) > 0.0
     links = ps.links
-    i, k = np.nonzero((links >= 0) & (side[:, None] != side[np.maximum(links, 0)]))
-    j = links[i, k]
-    ok = sel[i] & sel[j]
-    if only is not None:
-        ok &= only[i] | only[j]
+    own = links[idx]
+    other = np.maximum(own, 0)
+    r, k = np.nonzero((own >= 0) & sel[other] & (side[idx][:, None] != side[other]))
+    i = idx[r]
+    j = own[r, k]
+    ok = np.ones(len(i), dtype=bool) if only is None else (only[i] | only[j])
     face = np.zeros(links.shape, dtype=bool)
     if ok.any():
         ii, kk, jj = i[ok], k[ok], j[ok]
@@ -304,11 +312,12 @@ def shatter_particles(ps: ParticleSet, crack: Crack, bodies: Bodies = None) -> t
 
     Returns a new ParticleSet and the ids of the shattered particles (ascending).
     """
-    sel = body_mask(ps, bodies)
     if crack.r_inner <= 0.0:
         return ps, np.zeros(0, dtype=np.int64)
-    dist2 = np.einsum("ij,ij->i", ps.centroid - crack.point, ps.centroid - crack.point)
-    debris = sel & (dist2 < crack.r_inner**2)
+    idx = np.flatnonzero(body_mask(ps, bodies))
+    d = ps.centroid[idx] - crack.point
+    debris = np.zeros(len(ps.alive), dtype=bool)
+    debris[idx[np.einsum("ij,ij->i", d, d) < crack.r_inner**2]] = True
     links = ps.links.copy()
     links[debris] = -1
     links[(links >= 0) & debris[np.maximum(links, 0)]] = -1

@@ -75,8 +75,11 @@ class RigidWorld(HostSync):
     """Rigid bodies on boundary spheres with static colliders; see the module docstring.
 
     Capacities are initial sizes: adding beyond them grows the store between steps (new fields,
-    copy, old tree released); the contact store grows inside `step` when the narrow phase needs it.
-    `max_*` bounds (None = unbounded) make growth stop with a CapacityError instead.
+    copy, old tree released; every kernel of the step then compiles again for the new store, about
+    2 s here); the contact store grows inside `step` when the narrow phase needs it.
+    `max_*` bounds (None = unbounded) make growth stop with a CapacityError instead. `on_grow(kind,
+    needed, capacity)` is told before each growth of bodies, spheres or contacts (the World names
+    the scene option that avoids it).
     """
 
     def __init__(
@@ -87,8 +90,10 @@ class RigidWorld(HostSync):
         capacity_contacts: int | None = None,
         config: RigidConfig | None = None,
         max_spheres: int | None = None,
+        on_grow=None,
     ) -> None:
         self.config = config or RigidConfig()
+        self.on_grow = on_grow
         self.config.validate()
         for name, val in (
             ("capacity_bodies", capacity_bodies),
@@ -178,13 +183,18 @@ class RigidWorld(HostSync):
     def _grow(self, bodies: int = 0, spheres: int = 0, colliders: int = 0, contacts: int = 0) -> None:
         """Rebuild the store with at least the given capacities (doubling), copying all data."""
         old = self._s
+        if self.on_grow is not None:
+            for kind, needed, cap in (("bodies", bodies, old.cap_bodies), ("spheres", spheres, old.cap_spheres),
+                                      ("contacts", contacts, old.cap_contacts)):
+                if needed > cap:
+                    self.on_grow(kind, needed, cap)
         nb = old.cap_bodies if bodies <= old.cap_bodies else max(bodies, 2 * old.cap_bodies)
         ns = old.cap_spheres if spheres <= old.cap_spheres else max(spheres, 2 * old.cap_spheres)
         if self.max_spheres is not None and ns > self.max_spheres:
             if spheres > self.max_spheres:
                 raise CapacityError(
                     f"rigid world: {spheres} boundary spheres exceed max_spheres = {self.max_spheres}; "
-                    "raise the scene option rigid.max_spheres or use a larger boundary group size"
+                    "raise max_spheres or use a larger boundary group size"
                 )
             ns = self.max_spheres
         ncol = old.cap_colliders if colliders <= old.cap_colliders else max(colliders, 2 * old.cap_colliders)

@@ -156,6 +156,10 @@ class SceneSection:
                                           unit="[min, max] pieces after test_frames")
     test_frames: int = spec_field("int", 0, lo=0, hi=100000, unit="frames the test suite runs (0 = frames)")
     elastic_damping: float = spec_field("float", 0.0, lo=0.0, hi=1e6, unit="1/s (elastic effect)")
+    body_capacity: int = spec_field("int", 0, lo=0, hi=2**24,
+                                    unit="rigid bodies ever made, fragments included (0 = from the particles)")
+    sphere_capacity: int = spec_field("int", 0, lo=0, hi=2**26,
+                                      unit="boundary spheres at once, crack faces included (0 = from the particles)")
 
 
 @dataclass

@@ -15,6 +15,7 @@ point X to the world as `R(q) (X - body_ref_com) + body_x` (rigid/world.py).
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
@@ -225,13 +226,20 @@ class World:
         from rigid.world import RigidConfig, RigidWorld
 
         sc = self.cfg.scene
-        n_sph_est = max(64, int(len(self.particles) * 0.5))
+        n = len(self.particles)
+        # Capacities with the headroom fracture needs, so that the store never grows during a run (a
+        # bigger store recompiles every rigid kernel: a 2 s frame). Measured at the end of the paper
+        # scenes: boundary spheres 0.22-0.77 x the physical particles (crack faces add surface
+        # particles), bodies ever made up to 179 for the 84k particles of Pots (ids are never reused).
+        bodies = sc.body_capacity or max(64, 4 * len(self._spawn) + n // 16)
+        spheres = sc.sphere_capacity or max(64, n)
         self.rigid = RigidWorld(
-            capacity_bodies=max(16, 4 * len(self._spawn)),
-            capacity_spheres=n_sph_est,
-            capacity_contacts=8 * n_sph_est,  # fragments resting against each other touch at many spheres
+            capacity_bodies=bodies,
+            capacity_spheres=spheres,
+            capacity_contacts=4 * spheres,  # fragments resting against each other touch at many spheres
             capacity_colliders=max(1, len(self.cfg.colliders)),
             config=RigidConfig(gravity=tuple(sc.gravity)),
+            on_grow=self._rigid_grows,
         )
         self.allocations["rigid"] = self.rigid
         for col in self.cfg.colliders:
@@ -256,6 +264,13 @@ class World:
             self.bodies[bid] = BodyInfo(sp["object"], o.breakable, o.static, sp["thickness"], o.resolution,
                                         bounds=(c.min(0), c.max(0)))
             self.body_material[bid] = int(np.bincount(ps.material[ids]).argmax())
+
+    def _rigid_grows(self, kind: str, needed: int, capacity: int) -> None:
+        """The rigid store is about to grow (its kernels compile again): say which option avoids it."""
+        option = {"bodies": "scene.body_capacity", "spheres": "scene.sphere_capacity"}.get(kind)
+        hint = f"; set {option} >= {2 * needed} in the scene (or --set) to avoid the pause" if option else ""
+        print(f"note: frame {self.frame}: {needed} rigid {kind} exceed the store's {capacity}; it grows and its "
+              f"kernels compile again{hint}", file=sys.stderr)
 
     def _build_debris(self) -> None:
         """Free debris spheres (rigid/debris.py) that meet the scene's colliders."""

@@ -71,3 +71,23 @@ def test_debris_store_only_with_the_debris_effect():
         assert "debris" in w.stages and sorted(w.allocations) == ["debris", "rigid"]
     finally:
         w.release()
+
+
+def test_a_store_too_small_grows_and_names_the_scene_option(capsys):
+    """With scene.sphere_capacity below the scene's boundary spheres, the rigid store grows (the run
+    goes on, the same as with room) and the note names the option that avoids the pause."""
+    from scenes.loader import load_scene
+    from sim.guards import state_hash
+    from sim.world import World
+
+    hashes = []
+    for extra in ([], ["scene.sphere_capacity=1"]):
+        w = World(load_scene("glass_r3", ['scene.effects=["rigid"]', *extra]))
+        try:
+            w.step_frame()
+            hashes.append((w.rigid.grow_count, state_hash(w)))
+        finally:
+            w.release()
+    assert hashes[0][0] == 0 and hashes[1][0] >= 1 and hashes[0][1] == hashes[1][1]
+    err = capsys.readouterr().err
+    assert "rigid spheres exceed the store's 16" in err and "scene.sphere_capacity >=" in err
