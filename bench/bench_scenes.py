@@ -17,8 +17,9 @@ and the tet cache, which any earlier run fills. From each run's stats.json and t
 - build time (World), start to first frame (process launch to the first frame done, drawn) and
   the process's peak resident memory (drawn run).
 
-The table is printed with the machine described; `--readme` also replaces the README's table
-between its markers, so the README shows this output and nothing hand-edited.
+Also the pieces of the drawn run beside the paper's Table 1. The tables are printed with the
+machine described; `--readme` also replaces the README's two tables between their markers, so the
+README shows this output and nothing hand-edited.
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("pot", "pot_basic", "glass_r3", "glass_r5", "taichi", "pet", "pots")
+PAPER_TABLE1 = {"pot": 14, "pot_basic": 6, "glass_r3": 436, "glass_r5": 598, "pots": 587, "pet": 47,
+                "taichi": 87}  # paper Table 1, fragments
 PAPER_TABLE2 = {  # paper Table 2 (Xeon W3530 + GTX 760): stress analysis, subdivision, crack generation (ms), fps
     "pot": (86, 2869, 1505, 10.2), "pot_basic": (86, 2869, 1505, 10.2), "glass_r3": (91, 1593, 329, 36.8),
     "glass_r5": (91, 1593, 329, 36.8), "pots": (588, 12923, 11037, 1.3), "pet": (341, 86784, 3386, 1.2),
@@ -44,6 +47,8 @@ PAPER_TABLE2 = {  # paper Table 2 (Xeon W3530 + GTX 760): stress analysis, subdi
 STEADY_SKIP = 0.1  # fraction of a run's frames left out of the steady frame rate (start, impact, events)
 README_BEGIN = "<!-- bench --scenes: begin -->"
 README_END = "<!-- bench --scenes: end -->"
+COUNTS_BEGIN = "<!-- bench --scenes counts: begin -->"
+COUNTS_END = "<!-- bench --scenes counts: end -->"
 
 
 def run_scene(scene: str, drawn: bool, frames: int | None, out: Path) -> dict:
@@ -99,7 +104,7 @@ def summarise(scene: str, drawn: dict, bare: dict) -> dict:
         build_s=t["build_s"],
         first_frame_s=t["first_frame_unix"] - drawn["_bench"]["launched"] if t["first_frame_unix"] else None,
         peak_mb=drawn["_bench"]["peak_mb"],
-        pieces=drawn["table1"].get("fragments"),
+        pieces=drawn["table1"].get("pieces") or {"total": drawn["table1"].get("fragments")},
     )
 
 
@@ -136,15 +141,29 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_readme(text: str, readme: Path = ROOT / "README.md") -> None:
+def counts_table(rows: list[dict]) -> str:
+    """Pieces as the paper's Table 1 counts fragments, beside it (the drawn run's stats.json)."""
+    lines = ["| scene | pieces (debris / small / large) | paper Table 1 | ratio | within 2x |", "|---|---|---|---|---|"]
+    for r in rows:
+        p, paper = r["pieces"], PAPER_TABLE1[r["scene"]]
+        ratio = p["total"] / paper
+        split = f" ({p['debris']:,} / {p['small']:,} / {p['large']:,})" if "debris" in p else ""
+        lines.append(f"| {r['scene']} | {p['total']:,}{split} | {paper:,} | {ratio:.2f}x | "
+                     f"{'yes' if 0.5 <= ratio <= 2.0 else 'no'} |")
+    return "\n".join(lines)
+
+
+def write_readme(text: str, readme: Path = ROOT / "README.md", begin: str = README_BEGIN,
+                 end: str = README_END) -> None:
+    """Replace what lies between the markers `begin` and `end` of the README with `text`."""
     from core.output import atomic_write_text
 
     body = readme.read_text()
-    if README_BEGIN not in body or README_END not in body:
-        raise SystemExit(f"{readme}: the markers {README_BEGIN} / {README_END} are missing")
-    head, rest = body.split(README_BEGIN, 1)
-    _, tail = rest.split(README_END, 1)
-    atomic_write_text(readme, f"{head}{README_BEGIN}\n{text}\n{README_END}{tail}")
+    if begin not in body or end not in body:
+        raise SystemExit(f"{readme}: the markers {begin} / {end} are missing")
+    head, rest = body.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    atomic_write_text(readme, f"{head}{begin}\n{text}\n{end}{tail}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -168,9 +187,11 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(summarise(scene, drawn, bare))
     text = (f"Measured by `python main.py bench --scenes` on {time.strftime('%Y-%m-%d')}: {machine()}. "
             "Paper: Xeon W3530 + GTX 760 (Table 2; its frame rate counts no drawing).\n\n" + table(rows))
-    print(text)
+    counts = counts_table(rows)
+    print(text + "\n\n" + counts)
     if args.readme:
         write_readme(text)
+        write_readme(counts, begin=COUNTS_BEGIN, end=COUNTS_END)
     return 0
 
 

@@ -102,6 +102,22 @@ class DebrisStore:
         self._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
         self.count += k
 
+    def set_velocities(self, index, v) -> None:
+        """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping
+        them along, sim/perforation.py)."""
+        index = np.asarray(index, dtype=np.int32).reshape(-1)
+        v = np.asarray(v, dtype=np.float64).reshape(-1, 3)
+        if len(index) != len(v) or (len(index) and (index.min() < 0 or index.max() >= self.count)):
+            raise ConfigError("debris.set_velocities", (len(index), len(v), self.count),
+                              "matching lengths and indices below the debris count")
+        if len(index):
+            self._k_set_v(len(index), index, v.astype(numpy_float()))
+
+    @ti.kernel
+    def _k_set_v(self, k: ti.i32, index: ti.types.ndarray(), v: ti.types.ndarray()):
+        for i in range(k):
+            self.debris_v[index[i]] = ti.math.vec3(v[i, 0], v[i, 1], v[i, 2])
+
     def _grow(self, needed: int) -> None:
         """A bigger tree (capacity doubles until it fits), the old state copied over."""
         keep = self.state()

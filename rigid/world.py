@@ -74,12 +74,10 @@ class _HostBodies:
 class RigidWorld(HostSync):
     """Rigid bodies on boundary spheres with static colliders; see the module docstring.
 
-    Capacities are initial sizes: adding beyond them grows the store between steps (new fields,
-    copy, old tree released; every kernel of the step then compiles again for the new store, about
-    2 s here); the contact store grows inside `step` when the narrow phase needs it.
-    `max_*` bounds (None = unbounded) make growth stop with a CapacityError instead. `on_grow(kind,
-    needed, capacity)` is told before each growth of bodies, spheres or contacts (the World names
-    the scene option that avoids it).
+    Capacities are initial sizes: adding beyond them grows the store between steps (new fields, copy,
+    old tree released; the step's kernels compile again, ~2 s), the contacts inside `step`. `max_*`
+    bounds (None = unbounded) stop growth with a CapacityError; `on_grow(kind, needed, capacity)` is
+    told before each growth (the World names the scene option that avoids it).
     """
 
     def __init__(
@@ -95,11 +93,9 @@ class RigidWorld(HostSync):
         self.config = config or RigidConfig()
         self.on_grow = on_grow
         self.config.validate()
-        for name, val in (
-            ("capacity_bodies", capacity_bodies),
-            ("capacity_spheres", capacity_spheres),
-            ("capacity_colliders", capacity_colliders),
-        ):
+        caps = dict(capacity_bodies=capacity_bodies, capacity_spheres=capacity_spheres,
+                    capacity_colliders=capacity_colliders)
+        for name, val in caps.items():
             if int(val) < 1:
                 raise ConfigError(f"rigid.{name}", val, ">= 1")
         nct = capacity_contacts if capacity_contacts is not None else 4 * int(capacity_spheres)
@@ -113,9 +109,7 @@ class RigidWorld(HostSync):
 
     # ------------------------------------------------------------------ bookkeeping
     def _reset_host(self) -> None:
-        self._nb = 0
-        self._ns = 0
-        self._ncol = 0
+        self._nb = self._ns = self._ncol = 0  # bodies, spheres, colliders
         self._nc = 0  # contacts of the last step
         self._hb = _HostBodies()
         fdt = numpy_float()
@@ -153,8 +147,7 @@ class RigidWorld(HostSync):
 
     @property
     def capacity(self) -> dict:
-        s = self._s
-        return dict(bodies=s.cap_bodies, spheres=s.cap_spheres, colliders=s.cap_colliders, contacts=s.cap_contacts)
+        return {k: getattr(self._s, f"cap_{k}") for k in ("bodies", "spheres", "colliders", "contacts")}
 
     def body_mass(self, body: int) -> float:
         """kg: the sum of the body's tet masses; also for a static body, which the solver treats as
@@ -183,11 +176,10 @@ class RigidWorld(HostSync):
     def _grow(self, bodies: int = 0, spheres: int = 0, colliders: int = 0, contacts: int = 0) -> None:
         """Rebuild the store with at least the given capacities (doubling), copying all data."""
         old = self._s
-        if self.on_grow is not None:
-            for kind, needed, cap in (("bodies", bodies, old.cap_bodies), ("spheres", spheres, old.cap_spheres),
-                                      ("contacts", contacts, old.cap_contacts)):
-                if needed > cap:
-                    self.on_grow(kind, needed, cap)
+        for kind, needed, cap in (("bodies", bodies, old.cap_bodies), ("spheres", spheres, old.cap_spheres),
+                                  ("contacts", contacts, old.cap_contacts)):
+            if needed > cap and self.on_grow is not None:
+                self.on_grow(kind, needed, cap)
         nb = old.cap_bodies if bodies <= old.cap_bodies else max(bodies, 2 * old.cap_bodies)
         ns = old.cap_spheres if spheres <= old.cap_spheres else max(spheres, 2 * old.cap_spheres)
         if self.max_spheres is not None and ns > self.max_spheres:

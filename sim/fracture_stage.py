@@ -269,8 +269,11 @@ def cut_body(world, body: int, cracks: list, record: dict) -> dict:
         world.bodies[nb] = BodyInfo(info.object_index, info.breakable and big,
                                     bool(world.rigid.body_is_static(nb)), info.thickness, info.resolution, history,
                                     info.bounds)
+    edge = np.cbrt(6.0 * np.sqrt(2.0) * ps.volume[debris])  # regular tet of each freed particle's volume
     record.update(
-        cracks=len(cracks), fragments=len(new_ids), debris=int(len(debris)),
+        cracks=len(cracks), fragments=len(new_ids), debris=int(len(debris)), new_bodies=[int(b) for b in new_ids],
+        # half the surface of every freed particle: each freed face is one side of a crack shared with a neighbour
+        freed_area_m2=round(0.5 * float((np.sqrt(3.0) * edge**2).sum()), 12),
         subdivided=int(sum(s.children for s in rep.subdivision)) if rep.subdivision else 0,
         removed_links=int(sum(rep.removed_links)),
         particle_subdivision_ms=round(rep.timings["subdivision_s"] * 1e3, 3),

@@ -110,6 +110,8 @@ class World:
         self.allocations: dict[str, object] = {}  # Taichi-backed stores by name (for tests and release)
         self.frame = 0
         self.time = 0.0  # s
+        self._time_left = 0.0  # s: time from the current substep to the end of the frame (impact records)
+        self._substep_start = None  # rigid.records.BodyState at the start of the current substep
         self.dt_frame = 1.0 / cfg.scene.fps
         self.events: list[dict] = []  # one record per fracture event (stats.json)
         self.analyses: list[dict] = []  # one record per crack analysis, cracked or not
@@ -319,7 +321,11 @@ class World:
         substep = [st for st in self.plan if st.phase == SUBSTEP]
         if substep:
             dt = self.dt_frame / sc.substeps
-            for _ in range(sc.substeps):
+            track = "fracture.events" in self.stages
+            for k in range(sc.substeps):
+                self._time_left = (sc.substeps - k) * dt  # s: this substep's and the later ones
+                if track:  # the strikers' velocities before this substep's contacts (sim/perforation.py)
+                    self._substep_start = self.rigid.body_state()
                 for st in substep:
                     with self.timers.stage(st.name):
                         self._run_stage(st.name, dt, impacts)
@@ -370,17 +376,25 @@ class World:
                     state = self.rigid.body_state() if state is None else state
                     impacts[struck] = dict(
                         other=other, speed=speed, point=point, normal=normal, impulse=float(pairs["impulse"][k]),
+                        time_left=self._time_left,
+                        striker_v=self._substep_start.v[other].copy() if other >= 0 else None,
+                        striker_w=self._substep_start.w[other].copy() if other >= 0 else None,
+                        struck_v=self._substep_start.v[struck].copy(), struck_w=self._substep_start.w[struck].copy(),
                         reference=contact_in_reference(self, struck, other, point, normal, state),
                     )
 
     def _fracture(self, impacts: dict[int, dict]) -> None:
         from sim.fracture_stage import fracture_body
+        from sim.perforation import perforate
 
         for body in sorted(impacts):
             if body not in self.bodies or not self.rigid.body_state().alive[body]:
                 continue
+            info = self.bodies[body]
+            debris_from = self.debris.count if "debris" in self.stages else 0
             record = fracture_body(self, body, impacts[body])
             if record is not None:
+                record["perforation"] = perforate(self, body, info, impacts[body], record, debris_from)
                 self.events.append(record)
                 self.surface_version += 1
 

@@ -78,7 +78,7 @@ def check_world(world: World) -> None:
         assert masses == pytest.approx(ps.mass[in_body][dynamic].sum(), rel=1e-12)
         # the store was sized at build for what fracture adds: it never grew (a growth recompiles every
         # rigid kernel: a pause of seconds in the middle of a run)
-        assert world.rigid.grow_count == 0, world.rigid.capacity()
+        assert world.rigid.grow_count == 0, world.rigid.capacity
         freed = np.flatnonzero(ps.alive & (ps.body < 0))
         if "debris" in world.stages:
             assert np.array_equal(np.sort(world.debris.state()["particle"]), freed)

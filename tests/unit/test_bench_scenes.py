@@ -17,7 +17,7 @@ def stats(frame_ms: list[float], events: list[dict], scripted: list[bool] | None
     return {
         "frames": len(frame_ms),
         "events": [{"scripted": s} for s in scripted],
-        "table1": {"fragments": 7},
+        "table1": {"fragments": 7, "pieces": {"debris": 4, "small": 1, "large": 2, "total": 7}},
         "timings": {"frame_wall_ms": frame_ms, "wall_s": sum(frame_ms) / 1e3, "build_s": 0.5,
                     "table2_events": events, "first_frame_unix": 1000.0 + frame_ms[0] / 1e3},
         "_bench": {"launched": 999.0, "peak_mb": 321.0},
@@ -39,6 +39,7 @@ def test_summary_figures_are_the_runs_own():
     assert r["first_frame_s"] == pytest.approx(1.9) and r["peak_mb"] == 321.0
     row = bs.table([r]).splitlines()[2]
     assert row.startswith("| pot | 20 | 2 | 6.0 (86) | 10.0 (2,869) | 17.0 (1,505) | 39.5 (70) |")
+    assert bs.counts_table([r]).splitlines()[2] == "| pot | 7 (4 / 1 / 2) | 14 | 0.50x | yes |"
 
 
 def test_readme_table_is_replaced_between_its_markers_only(tmp_path):
