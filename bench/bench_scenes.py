@@ -6,7 +6,9 @@
 Each scene runs as its own `python main.py run SCENE` process with the scene's default settings
 (CPU, f32, one thread, the default renderer and size, until the pieces rest), once with frames drawn
 and once with `--renderer none`; nothing is warmed up beforehand except Taichi's own kernel cache
-and the tet cache, which any earlier run fills. From each run's stats.json and the process:
+and the tet cache, which any earlier run fills. After a change to a kernel or a store's capacity the
+first run of a scene compiles (start to first frame 13-22 s instead of 4-7 s): run the benchmark
+twice and keep the second table. From each run's stats.json and the process:
 
 - per fracture event (means over the events of the drawn run): stress analysis, particle
   subdivision and crack generation as the paper's Table 2 splits them, and the whole event
