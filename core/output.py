@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import tempfile
@@ -10,6 +11,7 @@ from pathlib import Path
 from core.errors import ConfigError
 
 
+@functools.cache
 def _file_mode() -> int:
     """The mode a plainly created file gets under the process's umask (mkstemp's own is 0600, which
     would hide a run's outputs from the other users of a shared server)."""

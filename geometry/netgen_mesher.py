@@ -103,12 +103,6 @@ class SolidMesher:
         return cached_tets(key, generate)
 
 
-def mesh_solid(solid, size: float, name: str, curvature_safety: float = CURVATURE_SAFETY[0]):
-    """Tets of a `netgen.occ` solid meshed once at target edge length `size` (m): (verts (V, 3) m,
-    tets (T, 4))."""
-    return SolidMesher(solid, size, name).mesh(curvature_safety)
-
-
 def mesh_surface(vertices: np.ndarray, faces: np.ndarray, size: float, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Tets inside a closed, outward-oriented triangle surface (m) at target edge length `size` (m)."""
     import netgen.meshing as meshing
@@ -134,4 +128,4 @@ def mesh_surface(vertices: np.ndarray, faces: np.ndarray, size: float, name: str
     return cached_tets(key, generate)
 
 
-__all__ = ["GRADING", "SolidMesher", "mesh_solid", "mesh_surface"]
+__all__ = ["GRADING", "SolidMesher", "mesh_surface"]

@@ -407,14 +407,13 @@ class RigidWorld(HostSync):
         """Numpy copy of every body's pose and velocity (index = body id)."""
         return self._download_bodies(self._nb)
 
-    def sphere_world(self, state: BodyState | None = None) -> np.ndarray:
-        """(NS, 3) m: world centres of the boundary spheres at the current poses."""
+    def sphere_world(self, state: BodyState | None = None, spheres=None) -> np.ndarray:
+        """(NS, 3) m: world centres of the boundary spheres (or of the indices `spheres`) at the current poses."""
         st = state or self._download_bodies(self._nb)
-        if self._ns == 0:
-            return np.zeros((0, 3))
-        b = self._sph_body
+        sel = slice(None) if spheres is None else np.asarray(spheres, dtype=np.int64)
+        b = self._sph_body[sel]
         rot = quat_to_matrix(st.q[b])
-        return np.einsum("nij,nj->ni", rot, self._sph_local.astype(np.float64)) + st.x[b]
+        return np.einsum("nij,nj->ni", rot, self._sph_local[sel].astype(np.float64)) + st.x[b]
 
     def contact_events(self) -> ContactEvents:
         """Contacts of the last step (see ContactEvents)."""

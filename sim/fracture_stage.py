@@ -48,7 +48,7 @@ def _local_radius(world, body: int, point_world: np.ndarray) -> float:
     spheres = world.rigid.body_spheres(body)
     if len(spheres) == 0:
         return float("inf")
-    centres = world.rigid.sphere_world()[spheres]
+    centres = world.rigid.sphere_world(spheres=spheres)
     _, radius, _ = world.rigid.sphere_data()
     k = int(np.argmin(np.linalg.norm(centres - point_world, axis=1)))
     return float(radius[spheres[k]])

@@ -35,7 +35,7 @@ def _cross_section(world, striker: int, normal: np.ndarray, state) -> float:
     spheres = world.rigid.body_spheres(striker)
     if spheres.size == 0:
         return float("inf")
-    centres = world.rigid.sphere_world(state)[spheres] - state.x[striker]
+    centres = world.rigid.sphere_world(state, spheres) - state.x[striker]
     _, radius, _ = world.rigid.sphere_data()
     perp = centres - np.outer(centres @ normal, normal)
     return float((np.linalg.norm(perp, axis=1) + radius[spheres]).max())
@@ -74,16 +74,20 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     v_pre = np.asarray(impact["striker_v"], dtype=np.float64)  # before the substep of the contact
     if half > r_in or float(v_pre @ n) <= 0.0:
         return None
-    parts = _struck_parts(world, record, debris_from, st, info.static)
+    parts = _struck_parts(world, record, debris_from, st)
     m = world.rigid.body_mass(other)
     E = fracture_energy(world, body, info.thickness, record)
     v_free = v_pre * np.sqrt(max(0.0, 1.0 - E / (0.5 * m * float(v_pre @ v_pre))))
-    # the struck parts as before the contact: the parent's velocity field at that substep
+    # a free body's parts as before the contact: the parent's velocity field at that substep (a held
+    # body's parts were released at rest)
     v0, w0 = np.asarray(impact["struck_v"], dtype=np.float64), np.asarray(impact["struck_w"], dtype=np.float64)
-    field = (lambda x: v0 + np.cross(w0, x - parts["com"])) if not info.static else (lambda x: np.zeros_like(x))
+
+    def field(x):
+        return v0 + np.cross(w0, x - parts["com"])
+
     rel = parts["debris_x"] - st.x[other]
     swept = np.linalg.norm(rel - np.outer(rel @ n, n), axis=1) <= half
-    vd = field(parts["debris_x"]) if not info.static else parts["debris_v"].copy()
+    vd = parts["debris_v"].copy() if info.static else field(parts["debris_x"])
     m_sw = parts["debris_m"][swept]
     v_out = (m * v_free + (m_sw[:, None] * vd[swept]).sum(0)) / (m + m_sw.sum())  # an inelastic sweep
     # what the striker lost to the fracture pushes the rest of a free body on (momentum conserved)
@@ -110,7 +114,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
                 bodies_momentum=[float(c) for c in dp_bodies], debris_momentum=[float(c) for c in dp_debris])
 
 
-def _struck_parts(world, record: dict, debris_from: int, st, held: bool) -> dict:
+def _struck_parts(world, record: dict, debris_from: int, st) -> dict:
     """The event's new dynamic fragments (ids, masses) and its debris entries (store indices, world
     positions, velocities, masses), and their centre of mass (m)."""
     bodies = [b for b in record.get("new_bodies", []) if st.alive[b] and not world.rigid.body_is_static(b)]
