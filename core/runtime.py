@@ -97,6 +97,9 @@ def init_taichi(
 
     import taichi as ti
 
+    from core.taichi_frontend import install as fast_frontend
+
+    fast_frontend()  # memoised source excerpts in Taichi's AST transformer (same messages)
     kwargs: dict = dict(
         default_fp=ti.f64 if precision == "f64" else ti.f32,
         default_ip=ti.i32,

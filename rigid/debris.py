@@ -102,6 +102,18 @@ class DebrisStore:
         self._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
         self.count += k
 
+    def warm_kernels(self) -> None:
+        """Compile and load every kernel the store launches once debris exists, and the field copies
+        of `state`, by launching each on zero entries, so that the first shattering event does
+        not wait for them."""
+        fdt = numpy_float()
+        i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
+        self._k_append(0, 0, f3, f3, f1, i1)
+        self._k_step(0, self.n_colliders, 0.0, self.gravity)
+        self._k_set_v(0, i1, f3)
+        self._k_max_speed(0)
+        self.state()
+
     def set_velocities(self, index, v) -> None:
         """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping
         them along, sim/perforation.py)."""

@@ -130,6 +130,10 @@ class World:
             self._build_debris()
         if cfg.has("elastic"):
             self._build_elastic()
+        if cfg.has("fracture"):
+            from sim.fracture_stage import prepare
+
+            prepare(self)
         self.build_seconds = time.perf_counter() - t0
         self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
         check_time_step(self)
