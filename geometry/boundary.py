@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.boundary_groups import greedy_groups
+
 DEFAULT_GROUP_SIZE = 4  # particles per boundary sphere (the paper's sampling size n)
 DEFAULT_REACH = 4.0  # candidate members lie within this many particle radii of the seed (n = 4)
 
@@ -90,25 +92,7 @@ def build_boundary_particles(
         dist = dist.reshape(len(local), k)
         near = near.reshape(len(local), k)
         limit = reach * np.maximum(rad[:, None], rad[near])
-        ok = (dist <= limit).tolist()
-        near = near.tolist()
-        taken = [False] * len(local)
-        out = gid[local]
-        for s in order.tolist():
-            if taken[s]:
-                continue
-            members = [s]
-            for j, good in zip(near[s], ok[s]):
-                if len(members) == group_size:
-                    break
-                if good and not taken[j] and j != s:
-                    members.append(j)
-            if len(members) < group_size:
-                members = [s]
-            for m in members:
-                taken[m] = True
-                out[m] = next_id
-            next_id += 1
+        out, next_id = greedy_groups(order, near, dist <= limit, group_size, next_id)
         gid[local] = out
     if len(idx) == 0:
         z = np.zeros(0)

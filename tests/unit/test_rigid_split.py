@@ -124,3 +124,24 @@ def test_split_of_a_static_pane_frees_only_the_unheld_shard(world):
     x1 = w.body_state().x[kids]
     np.testing.assert_array_equal(x1[0], x0[0])  # the held part stays
     assert x1[1, 1] < x0[1, 1] - 0.005  # the freed shard falls
+
+
+def test_boundary_grouping_kernel_equals_the_python_rule():
+    """geometry/boundary_groups.py: the serial kernel groups exactly as the Python loop it replaced,
+    on random candidate lists with taken, free and self candidates, for several group sizes."""
+    from geometry.boundary_groups import greedy_groups, greedy_groups_reference
+
+    rng = np.random.default_rng(7)
+    for n, k, size in ((1, 1, 4), (7, 3, 4), (200, 12, 4), (150, 9, 3), (90, 6, 1), (60, 15, 6)):
+        order = rng.permutation(n)
+        near = np.concatenate([np.arange(n)[:, None], rng.integers(0, n, (n, k - 1))], axis=1)
+        for row in near:  # a k-NN list has distinct entries
+            _, first = np.unique(row, return_index=True)
+            dup = np.setdiff1d(np.arange(k), first)
+            row[dup] = row[0]
+        ok = rng.random((n, k)) < 0.8
+        got, next_got = greedy_groups(order, near, ok, size, 5)
+        want, next_want = greedy_groups_reference(order, near, ok, size, 5)
+        assert next_got == next_want
+        assert np.array_equal(got, want)
+        assert (got >= 5).all() and np.bincount(got - 5).max() <= size
