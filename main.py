@@ -145,17 +145,21 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from geometry.build import build_object
+    import contextlib
 
-    geo = build_object(
-        args.object,
-        resolution=args.resolution,
-        density=args.density,
-        units=args.units,
-        repair=args.repair,
-        seed=args.seed,
-        group_size=args.group_size,
-    )
+    # with --json, stdout carries the report only: libraries' banners (Taichi's) go to stderr
+    with contextlib.redirect_stdout(sys.stderr if args.json else sys.stdout):
+        from geometry.build import build_object
+
+        geo = build_object(
+            args.object,
+            resolution=args.resolution,
+            density=args.density,
+            units=args.units,
+            repair=args.repair,
+            seed=args.seed,
+            group_size=args.group_size,
+        )
     r = geo.report
     if args.json:
         print(json.dumps(r, indent=2))

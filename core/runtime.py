@@ -119,6 +119,11 @@ def init_taichi(
     return _runtime
 
 
+def taichi_started() -> bool:
+    """True once `init_taichi` has run in this process."""
+    return _runtime is not None
+
+
 def ensure_runtime() -> RuntimeInfo:
     """The running configuration, starting Taichi with the defaults (cpu, f32, 1 thread) if needed."""
     return _runtime if _runtime is not None else init_taichi()

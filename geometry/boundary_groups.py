@@ -4,42 +4,51 @@ geometry/boundary.py decides, per body, the visiting order (a Morton curve) and 
 nearest candidates; the grouping itself is sequential (a particle joins the first group that claims
 it), so it runs here as a single serial Taichi loop instead of a Python loop over surface particles:
 25-35 ms of every pot fracture event was that loop. Same rule, same groups (tests compare it with
-the Python reference, `greedy_groups_reference`).
+the Python reference, `greedy_groups_reference`, which also runs while Taichi is not started:
+geometry used on its own, as `main.py check` does, starts no Taichi). No `from __future__ import
+annotations` here: Taichi reads the kernel's annotations as objects.
 """
 
+import functools
 
 import numpy as np
-import taichi as ti
 
-from core.runtime import ensure_runtime
+from core.runtime import taichi_started
 
 
-@ti.kernel
-def _k_greedy_groups(order: ti.types.ndarray(), near: ti.types.ndarray(), ok: ti.types.ndarray(),
-                     group_size: ti.i32, first_id: ti.i32, gid: ti.types.ndarray(), taken: ti.types.ndarray(),
-                     next_id: ti.types.ndarray()):
-    for _ in range(1):  # one serial task: the grouping is order dependent
-        nid = first_id
-        for t in range(order.shape[0]):
-            s = order[t]
-            if taken[s] == 0:
-                count = 1
-                for j in range(near.shape[1]):  # how many free candidates it can take
-                    c = near[s, j]
-                    if count < group_size and ok[s, j] != 0 and taken[c] == 0 and c != s:
-                        count += 1
-                taken[s] = 1
-                gid[s] = nid
-                if count == group_size:  # a full group; otherwise the particle is a sphere on its own
+@functools.cache
+def _kernel():
+    """The serial grouping kernel, defined at first use (importing geometry starts no Taichi)."""
+    import taichi as ti
+
+    @ti.kernel
+    def k_greedy_groups(order: ti.types.ndarray(), near: ti.types.ndarray(), ok: ti.types.ndarray(),
+                        group_size: ti.i32, first_id: ti.i32, gid: ti.types.ndarray(), taken: ti.types.ndarray(),
+                        next_id: ti.types.ndarray()):
+        for _ in range(1):  # one serial task: the grouping is order dependent
+            nid = first_id
+            for t in range(order.shape[0]):
+                s = order[t]
+                if taken[s] == 0:
                     count = 1
-                    for j in range(near.shape[1]):
+                    for j in range(near.shape[1]):  # how many free candidates it can take
                         c = near[s, j]
                         if count < group_size and ok[s, j] != 0 and taken[c] == 0 and c != s:
-                            taken[c] = 1
-                            gid[c] = nid
                             count += 1
-                nid += 1
-        next_id[0] = nid
+                    taken[s] = 1
+                    gid[s] = nid
+                    if count == group_size:  # a full group; otherwise the particle is a sphere on its own
+                        count = 1
+                        for j in range(near.shape[1]):
+                            c = near[s, j]
+                            if count < group_size and ok[s, j] != 0 and taken[c] == 0 and c != s:
+                                taken[c] = 1
+                                gid[c] = nid
+                                count += 1
+                    nid += 1
+            next_id[0] = nid
+
+    return k_greedy_groups
 
 
 def greedy_groups(order: np.ndarray, near: np.ndarray, ok: np.ndarray, group_size: int,
@@ -47,18 +56,20 @@ def greedy_groups(order: np.ndarray, near: np.ndarray, ok: np.ndarray, group_siz
     """Group ids (n,) int64 of n surface particles visited in `order` (n,), each taking its first
     `group_size` - 1 free candidates among `near` (n,k) local indices where `ok` (n,k) bool, or
     staying alone when fewer are free; ids count up from `first_id`. Returns (ids, next free id)."""
-    ensure_runtime()
+    if not taichi_started():  # geometry used on its own (`main.py check`): the same rule in Python
+        return greedy_groups_reference(order, near, ok, group_size, first_id)
     n = len(order)
     gid = np.full(n, -1, np.int32)
     taken = np.zeros(n, np.int32)
     nxt = np.zeros(1, np.int32)
-    _k_greedy_groups(np.ascontiguousarray(order, np.int32), np.ascontiguousarray(near, np.int32),
-                     np.ascontiguousarray(ok, np.int32), int(group_size), int(first_id), gid, taken, nxt)
+    _kernel()(np.ascontiguousarray(order, np.int32), np.ascontiguousarray(near, np.int32),
+              np.ascontiguousarray(ok, np.int32), int(group_size), int(first_id), gid, taken, nxt)
     return gid.astype(np.int64), int(nxt[0])
 
 
 def greedy_groups_reference(order, near, ok, group_size: int, first_id: int) -> tuple[np.ndarray, int]:
-    """The same rule as a Python loop (the specification `greedy_groups` is tested against)."""
+    """The same rule as a Python loop: the specification the kernel is tested against, and what
+    runs while Taichi has not been started (geometry alone starts no Taichi)."""
     near, ok = np.asarray(near).tolist(), np.asarray(ok).tolist()
     taken = [False] * len(near)
     gid = np.full(len(near), -1, np.int64)
