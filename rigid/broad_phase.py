@@ -51,6 +51,17 @@ def k_derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
 
 
 
+@ti.kernel
+def k_max_travel(s: ti.template(), nb: ti.i32, dt: float, reach: ti.types.ndarray()) -> float:
+    """The largest distance an active body's spheres can move in dt, in units of the body's bounding
+    radius `reach` (m): (|v| + |w| reach) dt / reach (rigid/step.py splits a step by it)."""
+    m = 0.0
+    for b in range(nb):
+        if is_active(s, b) and reach[b] > 0.0:
+            ti.atomic_max(m, dt * (s.body_v[b].norm() / reach[b] + s.body_w[b].norm()))
+    return m
+
+
 # --------------------------------------------------------------------------- 3. broad phase
 @ti.func
 def cell_hash(c, hmask):

@@ -37,6 +37,16 @@ class HostSync:
         )
         return st_
 
+    def body_reach(self) -> np.ndarray:
+        """(nb,) m: each body's bounding radius about its centre of mass (largest |sphere centre| +
+        radius); kept until the spheres change (they are replaced, never edited, when they do)."""
+        cached = getattr(self, "_reach", None)
+        if cached is None or cached[0] is not self._sph_body or len(cached[1]) != self._nb:
+            reach = np.zeros(self._nb, numpy_float())
+            np.maximum.at(reach, self._sph_body, np.linalg.norm(self._sph_local, axis=1) + self._sph_radius)
+            self._reach = (self._sph_body, reach)
+        return self._reach[1]
+
     def warm_event_kernels(self) -> None:
         """Compile and load the copies a fracture event makes (contact and warm-start downloads,
         body-state writes, wake-ups) by launching each on nothing (zero counts; the body-state

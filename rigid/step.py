@@ -38,6 +38,7 @@ islands.py (10-11); host transfers in transfers.py, shared helpers in kernel_mat
 
 from __future__ import annotations
 
+import math
 import time
 
 from rigid import broad_phase, islands, narrow_phase, solver
@@ -66,8 +67,27 @@ class StageLaps:
         self.t = now
 
 
+def travel_splits(world, dt: float) -> int:
+    """Parts a step of dt is split into so that no active body moves more than
+    `config.max_travel_per_step` of its own bounding radius in one part: contacts are found once
+    per part, and a body that jumps many times its size in one can slip through a thin one (a 2 cm
+    ball at 200 m/s moves 0.83 m in 1/240 s). 1 for every body of the paper scenes at their speeds."""
+    limit = world.config.max_travel_per_step
+    if limit <= 0.0 or world._nb == 0:
+        return 1
+    ratio = broad_phase.k_max_travel(world._s, world._nb, dt, world.body_reach())
+    return max(1, math.ceil(ratio / limit))
+
+
 def rigid_step(world, dt: float) -> None:
-    """Advance a RigidWorld by dt seconds (dt checked by the caller): the stages of the module doc."""
+    """Advance a RigidWorld by dt seconds (dt checked by the caller), in `travel_splits` parts."""
+    parts = travel_splits(world, dt)
+    for _ in range(parts):
+        _step(world, dt / parts)
+
+
+def _step(world, dt: float) -> None:
+    """One step of dt seconds: the stages of the module doc."""
     cfg = world.config
     nb, ns, ncol = world._nb, world._ns, world._ncol
     if nb == 0:

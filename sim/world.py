@@ -327,12 +327,15 @@ class World:
             dt = self.dt_frame / sc.substeps
             track = "fracture.events" in self.stages
             for k in range(sc.substeps):
-                self._time_left = (sc.substeps - k) * dt  # s: this substep's and the later ones
-                if track:  # the strikers' velocities before this substep's contacts (sim/perforation.py)
-                    self._substep_start = self.rigid.body_state()
-                for st in substep:
-                    with self.timers.stage(st.name):
-                        self._run_stage(st.name, dt, impacts)
+                # a fast body splits the substep (rigid.step.travel_splits): impacts are read from every part
+                parts = self._travel_splits(dt)
+                for part in range(parts):
+                    self._time_left = (sc.substeps - k - part / parts) * dt  # s: this part's and the later ones
+                    if track:  # the strikers' velocities before this part's contacts (sim/perforation.py)
+                        self._substep_start = self.rigid.body_state()
+                    for st in substep:
+                        with self.timers.stage(st.name):
+                            self._run_stage(st.name, dt / parts, impacts)
         for st in self.plan:
             if st.phase == FRAME:
                 with self.timers.stage(st.name):
@@ -343,6 +346,13 @@ class World:
         self.frame += 1
         self.time += self.dt_frame
         return self.timers.end_frame()
+
+    def _travel_splits(self, dt: float) -> int:
+        if "rigid" not in self.stages:
+            return 1
+        from rigid.step import travel_splits
+
+        return travel_splits(self.rigid, dt)
 
     def _run_stage(self, name: str, dt: float, impacts: dict[int, dict]) -> None:
         """One substep or frame stage (sim/stages.py); fracture events run their own stages."""
