@@ -1,5 +1,6 @@
-"""core/taichi_frontend.py: the memoised TextWrapper gives Taichi's frontend exactly the text the
-standard one gives, so a kernel's compile error reads the same, and it is installed by init_taichi."""
+"""Start-up (core/taichi_frontend.py, core/runtime.py): the memoised TextWrapper gives Taichi's
+frontend exactly the text the standard one gives, so a kernel's compile error reads the same, and
+init_taichi installs it; the offline kernel cache is large enough not to evict."""
 
 from __future__ import annotations
 
@@ -53,3 +54,13 @@ def test_a_compile_error_reads_the_same(monkeypatch):
     plain = _compile_error(monkeypatch, textwrap.TextWrapper)
     assert "undefined_name_for_the_test" in memo and "^" in memo
     assert memo.splitlines()[1:] == plain.splitlines()[1:]  # line 0 names the file and line number
+
+
+def test_the_offline_cache_is_large_enough_not_to_evict():
+    """Taichi's default cache (100 MB, LRU) evicted kernels once the suite and a few scenes had run."""
+    from taichi.lang import impl
+
+    from core.runtime import OFFLINE_CACHE_MAX_BYTES
+
+    cfg = impl.current_cfg()
+    assert cfg.offline_cache and cfg.offline_cache_max_size_of_files == OFFLINE_CACHE_MAX_BYTES >= 500 * 2**20
