@@ -162,13 +162,14 @@ def crack_shapes(frames, body: int, cracks) -> list:
 def preview(world, body: int, point, velocity, key: str = "preview") -> Preview:
     """Run the crack analysis only (sim.fracture_stage.analyse) for a strike of `body` at `point`
     (m, world) by an anvil moving at `velocity` (m/s, world); nothing is applied."""
-    from sim.fracture_stage import analyse, analysed_particles
+    from sim.fracture_stage import analyse, analysed_rows, take_body
     from sph.cracks import threshold_speed
 
     impact = strike_impact(world, body, point, velocity, key)
-    res = analyse(world, body, impact)
-    ps = world.particles
-    ids = analysed_particles(world, body)[np.asarray(res.particles, dtype=np.int64)]
+    taken = take_body(world, body)
+    res = analyse(world, body, impact, taken)
+    rows = analysed_rows(taken.particles, body)[np.asarray(res.particles, dtype=np.int64)]
+    ids = taken.ids[rows]
     frames = body_frames(world)
     p_ref, n_ref = to_reference(frames, body, impact["point"], impact["normal"])
     try:
@@ -176,7 +177,8 @@ def preview(world, body: int, point, velocity, key: str = "preview") -> Preview:
     except (SandboxError, ValueError, ZeroDivisionError, FloatingPointError):  # a diagnostic only
         v_th = math.inf
     return Preview(body=body, point=impact["point"], normal=impact["normal"], speed=impact["speed"], analysis=res,
-                   particle_ids=ids, particle_x=to_world(frames, np.full(len(ids), body), ps.centroid[ids]),
+                   particle_ids=ids,
+                   particle_x=to_world(frames, np.full(len(ids), body), taken.particles.centroid[rows]),
                    group=np.asarray(res.group, dtype=np.int64), cracks=crack_shapes(frames, body, res.cracks),
                    r_inner=float(res.r_inner) if res.cracks else 0.0, threshold_speed=v_th, point_ref=p_ref,
                    normal_ref=n_ref)

@@ -94,3 +94,36 @@ def build_particles(
         parent=np.full(n, -1, dtype=np.int64),
         alive=np.ones(n, dtype=bool),
     )
+
+
+def concat_particles(parts: list[ParticleSet]) -> ParticleSet:
+    """One ParticleSet from several, with link and parent indices shifted."""
+    offsets = np.cumsum([0] + [len(p) for p in parts[:-1]])
+
+    def shift(a: np.ndarray, off: int) -> np.ndarray:
+        return np.where(a >= 0, a + off, a)
+
+    return ParticleSet(
+        rest_verts=np.concatenate([p.rest_verts for p in parts]),
+        volume=np.concatenate([p.volume for p in parts]),
+        mass=np.concatenate([p.mass for p in parts]),
+        centroid=np.concatenate([p.centroid for p in parts]),
+        radius=np.concatenate([p.radius for p in parts]),
+        material=np.concatenate([p.material for p in parts]),
+        body=np.concatenate([p.body for p in parts]),
+        links=np.concatenate([shift(p.links, o) for p, o in zip(parts, offsets)]),
+        kind=np.concatenate([p.kind for p in parts]),
+        parent=np.concatenate([shift(p.parent, o) for p, o in zip(parts, offsets)]),
+        alive=np.concatenate([p.alive for p in parts]),
+        extra_links=np.concatenate([p.extra_links + o for p, o in zip(parts, offsets)]),
+    )
+
+
+def transform_particles(ps: ParticleSet, rot: np.ndarray, offset: np.ndarray) -> ParticleSet:
+    """Rest data moved by x -> rot x + offset (a rigid motion keeps volumes and links)."""
+    verts = ps.rest_verts @ rot.T + offset
+    return ParticleSet(
+        rest_verts=verts, volume=ps.volume.copy(), mass=ps.mass.copy(), centroid=verts.mean(1),
+        radius=ps.radius.copy(), material=ps.material.copy(), body=ps.body.copy(), links=ps.links.copy(),
+        kind=ps.kind.copy(), parent=ps.parent.copy(), alive=ps.alive.copy(), extra_links=ps.extra_links.copy(),
+    )

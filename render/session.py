@@ -38,65 +38,61 @@ def world_surfaces(world):
 class SurfaceCache:
     """Fragment surfaces rebuilt only for the bodies a fracture changed. A body's closed surface
     (geometry.surface.fragment_surfaces, which treats every label on its own) depends only on its
-    alive particles, their face links and their extra links; bodies whose signature of those is
-    unchanged keep their cached mesh. `surfaces(world)` equals `world_surfaces(world)` (tested)."""
+    alive particles and their links; the particle store stamps every body it writes
+    (ParticleStore.body_stamp), and the particles of the changed bodies alone are taken from it, so a
+    fracture event copies nothing of the other bodies to the host. `surfaces(world)` equals
+    `world_surfaces(world)` (tested)."""
 
     def __init__(self) -> None:
-        self._bodies: dict[int, tuple] = {}  # body -> (signature, verts, faces, face_id)
+        self._bodies: dict[int, tuple] = {}  # body -> (stamp, verts, faces, face_id, face_material)
+        self.face_material = np.zeros(0, np.int32)  # (F,) material of each face of the last `surfaces`
 
     def update(self, world) -> list[int]:
         """Rebuild the changed bodies' meshes; returns the live bodies in id order."""
         from geometry.surface import fragment_surfaces
 
-        ps = world.particles
-        labels = np.where(ps.alive, ps.body, -1).astype(np.int64)
-        idx = np.flatnonzero(labels >= 0)
-        order = idx[np.argsort(labels[idx], kind="stable")]
-        bodies, starts = np.unique(labels[order], return_index=True)
-        members = np.split(order, starts[1:]) if len(order) else []
-        ex = ps.extra_links
-        ex_lab = labels[ex[:, 0]] if len(ex) else np.zeros(0, np.int64)
-        ex_order = np.argsort(ex_lab, kind="stable")
-        ex_bodies, ex_starts = np.unique(ex_lab[ex_order], return_index=True)
-        ex_rows = dict(zip(ex_bodies.tolist(), np.split(ex[ex_order], ex_starts[1:]))) if len(ex) else {}
-        signature, changed = {}, []
-        for b, ids in zip(bodies.tolist(), members):
-            sig = hash((ids.tobytes(), ps.links[ids].tobytes(), ex_rows.get(b, ex[:0]).tobytes()))
-            signature[b] = sig
-            if self._bodies.get(b, (None,))[0] != sig:
-                changed.append(b)
-        self._bodies = {b: v for b, v in self._bodies.items() if b in signature}
+        store = world.store
+        count, _ = store.body_totals(max(store.body_stamp, default=-1) + 1)
+        bodies = np.flatnonzero(count > 0).tolist()
+        changed = [b for b in bodies if self._bodies.get(b, (None,))[0] != store.body_stamp[b]]
+        self._bodies = {b: v for b, v in self._bodies.items() if count[b] > 0}
         if changed:
-            sub = np.where(np.isin(labels, changed), labels, -1)
-            mesh = fragment_surfaces(ps, sub)
+            ids, ps, _, _ = store.take_bodies(changed)
+            labels = np.where(ps.alive & np.isin(ps.body, changed), ps.body, -1).astype(np.int64)
+            mesh = fragment_surfaces(ps, labels)
+            row = mesh.face_id // 4
+            face_id = ids[row] * 4 + mesh.face_id % 4  # store ids, as the whole-world surfaces give them
             for b in changed:
-                f = mesh.faces[mesh.face_label == b]
-                used, inv = np.unique(f, return_inverse=True)
-                self._bodies[b] = (signature[b], mesh.verts[used], inv.reshape(-1, 3),
-                                   mesh.face_id[mesh.face_label == b])
-        return bodies.tolist()
+                on = mesh.face_label == b
+                used, inv = np.unique(mesh.faces[on], return_inverse=True)
+                self._bodies[b] = (store.body_stamp[b], mesh.verts[used], inv.reshape(-1, 3), face_id[on],
+                                   ps.material[row[on]])
+        return bodies
 
     def body_mesh(self, body: int) -> tuple:
-        """(signature, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
-        return self._bodies[body]
+        """(stamp, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
+        return self._bodies[body][:4]
 
     def surfaces(self, world):
         from geometry.surface import SurfaceMesh
 
         bodies = self.update(world)
-        verts, faces, face_id, vlab, flab = [], [], [], [], []
+        verts, faces, face_id, vlab, flab, fmat = [], [], [], [], [], []
         offset = 0
         for b in bodies:
-            _, v, f, fid = self._bodies[b]
+            _, v, f, fid, mat = self._bodies[b]
             verts.append(v)
             faces.append(f + offset)
             face_id.append(fid)
+            fmat.append(mat)
             vlab.append(np.full(len(v), b, np.int64))
             flab.append(np.full(len(f), b, np.int64))
             offset += len(v)
         if not verts:
             e = np.zeros(0, np.int64)
+            self.face_material = np.zeros(0, np.int32)
             return SurfaceMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), e, e, face_id=e)
+        self.face_material = np.concatenate(fmat)
         return SurfaceMesh(verts=np.concatenate(verts), faces=np.concatenate(faces), face_label=np.concatenate(flab),
                            vert_label=np.concatenate(vlab), face_id=np.concatenate(face_id))
 
@@ -187,13 +183,13 @@ class SceneView:
             self._outer[fid[rows]] = on_surface(self._rest_tris, mesh.verts[mesh.faces[rows]], self._tol)
         return self._outer[fid] == 1
 
-    def _surface_parts(self, mesh) -> list[MeshPart]:
-        """One part per material (its roughness and opacity), faces coloured by look and crack."""
+    def _surface_parts(self, mesh, mat: np.ndarray) -> list[MeshPart]:
+        """One part per material (`mat`, per face: its roughness and opacity), faces coloured by look
+        and crack."""
         w = self.world
         if len(self.looks) < len(w.materials):  # a material added after the start (the viewer's ball)
             self.looks = material_looks(w)
         outer = self._outer_faces(mesh)
-        mat = w.particles.material[mesh.face_id // 4]
         body = mesh.face_label
         if self.colors == "fragments":
             base = body_palette(max(1, int(body.max(initial=0)) + 1))[body]
@@ -215,7 +211,8 @@ class SceneView:
         w = self.world
         if "rigid" in w.stages:
             if w.surface_version != self._version:
-                self.scene.set_surfaces(self._floor + self._surface_parts(self._surfaces.surfaces(w)))
+                mesh = self._surfaces.surfaces(w)
+                self.scene.set_surfaces(self._floor + self._surface_parts(mesh, self._surfaces.face_material))
                 self._version = w.surface_version
             s = w.rigid._s
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)

@@ -133,7 +133,7 @@ class DebrisStore:
     def _grow(self, needed: int) -> None:
         """A bigger tree (capacity doubles until it fits), the old state copied over."""
         keep = self.state()
-        pid = self.debris_particle.to_numpy()[: self.count]
+        pid = keep["particle"]
         cap = self.capacity
         while cap < needed:
             cap *= 2
@@ -220,13 +220,24 @@ class DebrisStore:
             ti.atomic_max(v, self.debris_v[i].norm())
         return v
 
-    def state(self) -> dict:
-        """Numpy copies of the live debris: x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
-        n = self.count
-        return dict(x=self.debris_x.to_numpy()[:n].astype(np.float64),
-                    v=self.debris_v.to_numpy()[:n].astype(np.float64),
-                    r=self.debris_r.to_numpy()[:n].astype(np.float64),
-                    particle=self.debris_particle.to_numpy()[:n])
+    def state(self, first: int = 0) -> dict:
+        """Numpy copies of the live debris from entry `first` on (only those rows cross to the host: a
+        fracture event reads the entries it made): x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
+        k = max(0, self.count - int(first))
+        fdt = numpy_float()
+        out = dict(x=np.zeros((k, 3), fdt), v=np.zeros((k, 3), fdt), r=np.zeros(k, fdt), particle=np.zeros(k, np.int32))
+        self._k_read(int(first), k, out["x"], out["v"], out["r"], out["particle"])
+        return {key: (a if key == "particle" else a.astype(np.float64)) for key, a in out.items()}
+
+    @ti.kernel
+    def _k_read(self, first: ti.i32, k: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
+                r: ti.types.ndarray(), pid: ti.types.ndarray()):
+        for j in range(k):
+            for a in ti.static(range(3)):
+                x[j, a] = self.debris_x[first + j][a]
+                v[j, a] = self.debris_v[first + j][a]
+            r[j] = self.debris_r[first + j]
+            pid[j] = self.debris_particle[first + j]
 
 
 __all__ = ["DebrisStore"]

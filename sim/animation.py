@@ -57,26 +57,25 @@ class AnimationRecorder:
         self._version = None
         self._looks = material_looks(world)
 
-    def _body_materials(self, world) -> dict[int, int]:
-        """The most common material of each live body's particles."""
+    def _body_materials(self, world, bodies: list[int]) -> dict[int, int]:
+        """The most common material of each live body's particles: recorded by the World when it
+        made the body (World.body_material); counted from the particles for a body it did not make
+        (the viewer's shot ball)."""
+        known = {b: world.body_material[b] for b in bodies if b in world.body_material}
+        if len(known) == len(bodies):
+            return known
         ps = world.particles
-        live = ps.alive & (ps.body >= 0)
-        body, mat = ps.body[live].astype(np.int64), ps.material[live].astype(np.int64)
-        if len(body) == 0:
-            return {}
-        nm = int(mat.max()) + 1
-        pairs, counts = np.unique(body * nm + mat, return_counts=True)
-        order = np.lexsort((-counts, pairs // nm))  # per body, the largest count first
-        first = np.unique(pairs[order] // nm, return_index=True)[1]
-        top = pairs[order][first]
-        return dict(zip((top // nm).tolist(), (top % nm).tolist()))
+        for b in set(bodies) - set(known):
+            mine = ps.alive & (ps.body == b)
+            known[b] = int(np.bincount(ps.material[mine]).argmax()) if mine.any() else 0
+        return known
 
     def _refresh(self, world, frame: int) -> None:
         from sim.export_frames import body_frames
 
         live = self._cache.update(world)
         _, _, com = body_frames(world)
-        materials = self._body_materials(world)
+        materials = self._body_materials(world, live)
         now = {}
         for b in live:
             sig, verts, faces, _ = self._cache.body_mesh(b)

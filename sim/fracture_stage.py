@@ -5,22 +5,41 @@
     shatter inside r_inner                                            (same call, `shatter`)
     split: connected components -> new rigid bodies keeping the parent's velocity field (rigid.bodies)
 
-Only the touched body is processed. Timings follow the paper's Table 2 columns: stress analysis,
+Only the touched body is processed, on the particle store in place (geometry.particle_store): the
+event takes the body's particles once (`take_body`), the analysis and the cut work on that body-sized
+copy with local ids, and `put_body` writes back what changed and appends the children. Timings
+follow the paper's Table 2 columns: stress analysis,
 particle subdivision, crack generation (link removal, labelling, splitting, new boundary particles).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.particles import ParticleSet
 from sim.bodies import BodyInfo
 
 # A piece breaks again only when it holds at least this many physical-particle volumes of its object:
 # about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
 # least Algorithm 1 can resolve a stress field in; smaller pieces fly and land as they are.
 MIN_BREAKABLE_PARTICLES = 32
+
+
+@dataclass
+class TakenBody:
+    """A body's particles taken from the store for one event (ParticleStore.take_body)."""
+
+    ids: np.ndarray  # (K,) store ids of the rows, ascending
+    particles: ParticleSet  # K rows with local ids (links, parents)
+    kernel_G: np.ndarray  # (K, 3, 3) 1/m: rest kernel tensors
+    extra_rows: np.ndarray  # store rows of the extra links among them
+
+
+def take_body(world, body: int) -> TakenBody:
+    return TakenBody(*world.store.take_bodies([body]))
 
 
 def prepare(world) -> None:
@@ -31,6 +50,7 @@ def prepare(world) -> None:
 
     for module in ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation", "scipy.spatial"):
         importlib.import_module(module)
+    world.store.warm_kernels()
     if "rigid" in world.stages:
         world.rigid.warm_event_kernels()
     if "debris" in world.stages:
@@ -89,13 +109,18 @@ def _body_material(world, body: int) -> int:
 
 
 def analysed_particles(world, body: int) -> np.ndarray:
+    """Store ids of the particles Algorithm 1 analyses on `body` (`analysed_rows`)."""
+    taken = take_body(world, body)
+    return taken.ids[analysed_rows(taken.particles, body)]
+
+
+def analysed_rows(ps: ParticleSet, body: int) -> np.ndarray:
     """The physical particles of a body, including those already replaced by their children.
 
     The paper analyses stress "on the original model" (Sect. 1, 5): subdivided children track the
     crack geometry, while the stress field is resolved at the physical particles' scale. This also
     keeps the analysis cost bounded by the physical particle count.
     """
-    ps = world.particles
     mine = ps.alive & (ps.body == body)
     ids = np.flatnonzero(mine & (ps.kind == 0))
     parents = ps.parent[mine & (ps.kind == 1)]
@@ -175,12 +200,14 @@ def contact_in_reference(world, body: int, other: int, point_w: np.ndarray, norm
     return dict(point=point, normal=normal, striker=striker)
 
 
-def analyse(world, body: int, impact: dict):
-    """Algorithm 1 at the impact point; returns the ImpactAnalysis (cracks in the reference frame)."""
+def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
+    """Algorithm 1 at the impact point; returns the ImpactAnalysis (cracks in the reference frame;
+    its particle indices are rows of `analysed_rows`)."""
     from sph.cracks import ImpactSpec, analyse_impact, tet_edge
 
-    ps = world.particles
-    ids = analysed_particles(world, body)
+    taken = take_body(world, body) if taken is None else taken
+    ps, G = taken.particles, taken.kernel_G
+    ids = analysed_rows(ps, body)
     point_w = np.asarray(impact["point"], dtype=np.float64)
     ref = impact.get("reference") or contact_in_reference(world, body, impact["other"], point_w, impact["normal"])
     point = ref["point"]
@@ -196,14 +223,15 @@ def analyse(world, body: int, impact: dict):
         R1=_local_radius(world, body, point_w), **_other_body(world, impact["other"], point_w),
         held=bool(world.rigid.body_is_static(body)),
     )
-    result = analyse_impact(ps.centroid[ids], ps.volume[ids], world.kernel_G[ids], material, spec,
+    result = analyse_impact(ps.centroid[ids], ps.volume[ids], G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
     if len(np.unique(ps.material[ids])) > 1:
-        result.cracks = across_materials(world, body, ids, spec, int(ps.material[nearest]), result.cracks)
+        result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks)
     return result
 
 
-def across_materials(world, body: int, ids: np.ndarray, spec, material: int, cracks: list) -> list:
+def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, material: int,
+                     cracks: list) -> list:
     """Sect. 6, Fig. 12: a crack that reaches particles of another material stops there, and the
     nearest crossing point starts a new analysis (Algorithm 1) in the other material's particles,
     with its constants, kernel and crack count, struck by the same impact (same normal and speed):
@@ -213,7 +241,7 @@ def across_materials(world, body: int, ids: np.ndarray, spec, material: int, cra
 
     from sph.cracks import analyse_impact, material_crossings, stop_at_crossings
 
-    ps = world.particles
+    ps = taken.particles
     mats = ps.material[ids]
     out = []
     for crack in cracks:
@@ -224,7 +252,7 @@ def across_materials(world, body: int, ids: np.ndarray, spec, material: int, cra
         first = crossings[0]
         sub = ids[mats == first.material]
         spec_k = replace(spec, point=first.point, reference=None)
-        more = analyse_impact(ps.centroid[sub], ps.volume[sub], world.kernel_G[sub], world.materials[first.material],
+        more = analyse_impact(ps.centroid[sub], ps.volume[sub], taken.kernel_G[sub], world.materials[first.material],
                               spec_k, crack_count=world.cfg.materials[first.material].cracks,
                               thickness=world.bodies[body].thickness)
         # the shatter zone belongs to the contact, not to the crossing
@@ -233,22 +261,24 @@ def across_materials(world, body: int, ids: np.ndarray, spec, material: int, cra
     return out
 
 
-def cut_body(world, body: int, cracks: list, record: dict) -> dict:
-    """Apply cracks to one body: cut, shatter, split into fragment bodies. Returns the event record."""
+def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | None = None) -> dict:
+    """Apply cracks to one body: cut, shatter, split into fragment bodies, on the body's particles
+    taken from the store (`taken`, or taken here), written back at the end. Returns the event record."""
     from geometry.fragments import apply_cracks
     from rigid.bodies import split_body
 
+    taken = take_body(world, body) if taken is None else taken
     info = world.bodies[body]
     obj = world.cfg.objects[info.object_index]
     shatter = world.cfg.has("shatter")
-    ps, rep = apply_cracks(world.particles, cracks, mode=world.mode, shatter=shatter, bodies=[body],
+    ps, rep = apply_cracks(taken.particles, cracks, mode=world.mode, shatter=shatter, bodies=[body],
                            history=info.history)
     t_cut = time.perf_counter()
     # children inherit their parent's kernel tensor (they sample the same material, Sect. 5.2)
-    n_old = len(world.kernel_G)
-    if len(ps) > n_old:
-        parent = ps.parent[n_old:]
-        world.kernel_G = np.concatenate([world.kernel_G, world.kernel_G[parent]])
+    G = taken.kernel_G
+    if len(ps) > len(G):
+        G = np.concatenate([G, G[ps.parent[len(G):]]])
+    store_id = world.store.global_ids(taken.ids, len(ps))  # what put_body will give every row
     debris = rep.debris[ps.alive[rep.debris]] if len(rep.debris) else rep.debris
     ids = np.flatnonzero(ps.alive & (ps.body == body))
     ids = ids[~np.isin(ids, debris)]
@@ -261,17 +291,17 @@ def cut_body(world, body: int, cracks: list, record: dict) -> dict:
     debris = np.concatenate([debris, ids[single]])
     ids = ids[~single]
     if len(debris):
-        _free_particles(world, body, ps, debris)
-    world.particles = ps
+        _free_particles(world, body, ps, debris, store_id[debris])
     labels = np.unique(rep.labels[ids], return_inverse=True)[1] if len(ids) else rep.labels[ids]
     new_ids = []
     if len(ids):
         held = None
         if info.static:
-            held = _held_labels(world, obj, info.bounds, ids, labels)
+            held = _held_labels(obj, info.bounds, ps.centroid[ids], labels)
         new_ids = split_body(world.rigid, body, ps, ids, labels, group_size=obj.group_size, static_labels=held)
     else:
         world.rigid.remove_bodies([body])
+    world.store.put_body(taken.ids, ps, G, taken.extra_rows)
     t_split = time.perf_counter()
     del world.bodies[body]
     history = info.history + list(cracks)
@@ -304,22 +334,24 @@ def cut_body(world, body: int, cracks: list, record: dict) -> dict:
     return record
 
 
-def _free_particles(world, body: int, ps, idx: np.ndarray) -> None:
-    """Particles `idx` of `body` leave it as debris: free spheres keeping the body's velocity field
-    (v + w x r) with the `debris` effect; without it they leave the simulation, their mass booked."""
+def _free_particles(world, body: int, ps, idx: np.ndarray, store_idx: np.ndarray) -> None:
+    """Particles `idx` (rows of `ps`; `store_idx` in the store) of `body` leave it as debris: free
+    spheres keeping the body's velocity field (v + w x r) with the `debris` effect; without it they
+    leave the simulation, their mass booked."""
     world.debris_pieces += len(idx)
     if world.cfg.has("debris"):
         x_w, v_w = _world_motion(world, body, ps.centroid[idx])
-        world.debris.add(x_w, v_w, ps.radius[idx], idx)
+        world.debris.add(x_w, v_w, ps.radius[idx], store_idx)
     else:
         world.debris_mass += float(ps.mass[idx].sum())
         ps.alive[idx] = False
     ps.body[idx] = -1
 
 
-def _held_labels(world, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Per label: True when the fragment touches the held border of a static object (a window frame)."""
-    near = held_particles(obj, obj_bounds, world.particles.centroid[ids])
+def _held_labels(obj, obj_bounds, x: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Per label: True when the fragment (particles at rest positions x) touches the held border of a
+    static object (a window frame)."""
+    near = held_particles(obj, obj_bounds, x)
     held = np.zeros(int(labels.max()) + 1, dtype=bool)
     held[labels[near]] = True
     return held
@@ -328,7 +360,8 @@ def _held_labels(world, obj, obj_bounds, ids: np.ndarray, labels: np.ndarray) ->
 def fracture_body(world, body: int, impact: dict) -> dict | None:
     """Analyse an impact on `body` and, when it cracks, cut and split it. Returns the event record."""
     t0 = time.perf_counter()
-    result = analyse(world, body, impact)
+    taken = take_body(world, body)
+    result = analyse(world, body, impact, taken)
     t1 = time.perf_counter()
     world.timers.add("fracture.analysis", t1 - t0)
     world.last_analysis = (body, result)  # the viewer colours the analysed particles by it
@@ -338,6 +371,6 @@ def fracture_body(world, body: int, impact: dict) -> dict | None:
         return None
     record = dict(frame=world.frame, body=body, speed=round(float(impact["speed"]), 6),
                   analysis=result.to_dict(), stress_analysis_ms=round((t1 - t0) * 1e3, 3))
-    record = cut_body(world, body, result.cracks, record)
+    record = cut_body(world, body, result.cracks, record, taken)
     record["whole_event_ms"] = round((time.perf_counter() - t0) * 1e3, 3)  # analysis to split, as a user waits
     return record

@@ -8,7 +8,7 @@ protect is written down in docs/robustness.md (with the test behind each line).
 State guards (cheap: one download of the body table, a few numpy reductions):
 - `check_state(world, when="end")`: runs after every frame (World.step_frame calls it). Rigid
   bodies (body_v, body_w, body_x, body_q finite, |q| = 1), the elastic particles (particle_x,
-  particle_v finite) and, after a fracture event, the host-side particles (volume > 0, mass > 0,
+  particle_v finite) and, after a fracture event, the particle store (volume > 0, mass > 0,
   finite centroids, finite positive-definite kernel tensors). With `when="start"` the same check
   names the values as changed *between* frames (a caller or a viewer wrote them).
 - `install_step_guard(world)`: wraps the world's rigid and elastic `step` so that the state is
@@ -118,39 +118,13 @@ def check_elastic(effect, frame: int = -1, where: str = "") -> None:
     _report("particle", bad, where or "after the elastic step", frame, step, ("particle_v", "particle_x"))
 
 
-def _positive_definite(G: np.ndarray) -> np.ndarray:
-    """(n,) bool: the symmetric part of each 3x3 is positive definite (Sylvester: its leading minors
-    are positive); a tenth of eigvalsh's time on the 100k kernels of the Pots scene."""
-    S = 0.5 * (G + np.swapaxes(G, 1, 2))
-    m1 = S[:, 0, 0]
-    m2 = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
-    m3 = (S[:, 0, 0] * (S[:, 1, 1] * S[:, 2, 2] - S[:, 1, 2] * S[:, 2, 1])
-          - S[:, 0, 1] * (S[:, 1, 0] * S[:, 2, 2] - S[:, 1, 2] * S[:, 2, 0])
-          + S[:, 0, 2] * (S[:, 1, 0] * S[:, 2, 1] - S[:, 1, 1] * S[:, 2, 0]))
-    return (m1 > 0.0) & (m2 > 0.0) & (m3 > 0.0)
-
-
 def check_particles(world, frame: int = -1, where: str = "") -> None:
-    """Host-side tet particles (after a fracture event): alive ones have finite geometry, positive
-    volume and mass; kernel tensors are finite and positive definite."""
-    ps = world.particles
-    alive = ps.alive
-    bad = {
-        "particle_centroid": _bad_rows(ps.centroid, alive),
-        "particle_rest_verts": _bad_rows(ps.rest_verts, alive),
-        "particle_volume": np.flatnonzero(alive & ~(np.isfinite(ps.volume) & (ps.volume > 0.0))),
-        "particle_mass": np.flatnonzero(alive & ~(np.isfinite(ps.mass) & (ps.mass > 0.0))),
-    }
-    G = getattr(world, "kernel_G", None)
-    if G is not None and len(G) == len(ps):
-        fin = np.all(np.isfinite(G.reshape(len(G), -1)), axis=1)
-        pd = np.zeros(len(G), dtype=bool)
-        sel = np.flatnonzero(alive & fin)
-        if sel.size:
-            pd[sel] = _positive_definite(G[sel])
-        bad["kernel_G"] = np.flatnonzero(alive & ~pd)
-    order = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
-    _report("particle", bad, where or "in the particle table", frame, -1, order,
+    """Tet particles (after a fracture event), checked on the store by one kernel (nothing copied to
+    the host): alive ones have finite geometry, positive volume and mass; kernel tensors are finite
+    and positive definite (geometry.particle_store.ParticleStore.first_invalid)."""
+    first = world.store.first_invalid()
+    bad = {name: np.array([i] if i >= 0 else [], dtype=np.int64) for name, i in first.items()}
+    _report("particle", bad, where or "in the particle table", frame, -1, tuple(first),
             what="invalid (non-finite, non-positive or not positive definite)")
 
 

@@ -120,10 +120,10 @@ def _struck_parts(world, record: dict, debris_from: int, st) -> dict:
     bodies = [b for b in record.get("new_bodies", []) if st.alive[b] and not world.rigid.body_is_static(b)]
     body_m = np.array([world.rigid.body_mass(b) for b in bodies], dtype=np.float64)
     if "debris" in world.stages and world.debris.count > debris_from:
-        d = world.debris.state()
+        d = world.debris.state(debris_from)  # the event's entries only
         idx = np.arange(debris_from, world.debris.count)
-        dx, dvel = d["x"][idx], d["v"][idx]
-        dm = world.particles.mass[d["particle"][idx]]
+        dx, dvel = d["x"], d["v"]
+        dm = world.store.take_mass(d["particle"])
     else:
         idx, dx, dvel, dm = np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
     total = body_m.sum() + dm.sum()

@@ -22,7 +22,7 @@ import numpy as np
 
 from core.errors import ConfigError
 from geometry.build import build_object, make_shape
-from geometry.particles import ParticleSet
+from geometry.particles import ParticleSet, concat_particles, transform_particles
 from scenes.config import SceneConfig
 from scenes.loader import resolve_mesh_path
 from sim.bodies import BodyInfo
@@ -41,39 +41,6 @@ def euler_xyz_deg(angles) -> np.ndarray:
     ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
     rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
     return rz @ ry @ rx
-
-
-def concat_particles(parts: list[ParticleSet]) -> ParticleSet:
-    """One ParticleSet from several, with link and parent indices shifted."""
-    offsets = np.cumsum([0] + [len(p) for p in parts[:-1]])
-
-    def shift(a: np.ndarray, off: int) -> np.ndarray:
-        return np.where(a >= 0, a + off, a)
-
-    return ParticleSet(
-        rest_verts=np.concatenate([p.rest_verts for p in parts]),
-        volume=np.concatenate([p.volume for p in parts]),
-        mass=np.concatenate([p.mass for p in parts]),
-        centroid=np.concatenate([p.centroid for p in parts]),
-        radius=np.concatenate([p.radius for p in parts]),
-        material=np.concatenate([p.material for p in parts]),
-        body=np.concatenate([p.body for p in parts]),
-        links=np.concatenate([shift(p.links, o) for p, o in zip(parts, offsets)]),
-        kind=np.concatenate([p.kind for p in parts]),
-        parent=np.concatenate([shift(p.parent, o) for p, o in zip(parts, offsets)]),
-        alive=np.concatenate([p.alive for p in parts]),
-        extra_links=np.concatenate([p.extra_links + o for p, o in zip(parts, offsets)]),
-    )
-
-
-def transform_particles(ps: ParticleSet, rot: np.ndarray, offset: np.ndarray) -> ParticleSet:
-    """Rest data moved by x -> rot x + offset (a rigid motion keeps volumes and links)."""
-    verts = ps.rest_verts @ rot.T + offset
-    return ParticleSet(
-        rest_verts=verts, volume=ps.volume.copy(), mass=ps.mass.copy(), centroid=verts.mean(1),
-        radius=ps.radius.copy(), material=ps.material.copy(), body=ps.body.copy(), links=ps.links.copy(),
-        kind=ps.kind.copy(), parent=ps.parent.copy(), alive=ps.alive.copy(), extra_links=ps.extra_links.copy(),
-    )
 
 
 def stage_list(cfg: SceneConfig) -> list[str]:
@@ -119,6 +86,8 @@ class World:
         self.debris_mass = 0.0  # kg: shattered particles taken out of the simulation (no 'debris')
         self.debris_pieces = 0  # shattered particles, moved by the 'debris' effect or taken out
         self.surface_version = 0  # increases whenever fragment surfaces change
+        self.store = None  # geometry.particle_store.ParticleStore, made at the end of the build
+        self._input: list = [None, None]  # the host particles and kernel tensors while building
         t0 = time.perf_counter()
         self._build_materials()
         self._build_objects()
@@ -130,13 +99,36 @@ class World:
             self._build_debris()
         if cfg.has("elastic"):
             self._build_elastic()
+        from geometry.particle_store import ParticleStore
+
+        self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
+        self.store = ParticleStore(*self._input)
+        self._input = None
         if cfg.has("fracture"):
             from sim.fracture_stage import prepare
 
             prepare(self)
         self.build_seconds = time.perf_counter() - t0
-        self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
         check_time_step(self)
+
+    @property
+    def particles(self) -> ParticleSet:
+        """The tet particles: while the World builds, the host set it builds; then a read-only copy of
+        `store` (geometry.particle_store), downloaded when the store changed. An output: events and
+        frames work on the store."""
+        return self._input[0] if self.store is None else self.store.host()[0]
+
+    @property
+    def kernel_G(self) -> np.ndarray | None:
+        """(N, 3, 3) 1/m: rest kernel tensors (Eq. 5), read-only like `particles`; None in a scene
+        with neither the fracture nor the elastic effect."""
+        if self.store is None:
+            return self._input[1]
+        return self.store.host()[1] if self.store.has_kernels else None
+
+    def replace_particles(self, particles: ParticleSet, kernel_G: np.ndarray | None) -> None:
+        """Input after the build (the viewer's shot ball, its kernel slider): the store takes these."""
+        self.store.reset(particles, kernel_G)
 
     # ------------------------------------------------------------------ building
     def _build_materials(self) -> None:
@@ -189,7 +181,7 @@ class World:
                 parts.append(moved)
                 self._spawn.append(dict(object=i, start=start, stop=start + len(moved), thickness=geo.thickness))
                 start += len(moved)
-        self.particles = concat_particles(parts)
+        self._input[0] = concat_particles(parts)
         self.particles.body[:] = -1
         for k, sp in enumerate(self._spawn):
             self.particles.body[sp["start"]:sp["stop"]] = k
@@ -225,7 +217,7 @@ class World:
                     axes = np.asarray(kc.axes, dtype=np.float64).reshape(3, 3).T if kc.mode == "fixed" else np.eye(3)
                     rot = euler_xyz_deg(o.rotation)
                     G[sel] = kernel_from_axes(rot @ axes, h * np.asarray(kc.axis_scale))
-        self.kernel_G = G  # (N, 3, 3) 1/m: rest kernel tensors in the reference frame
+        self._input[1] = G  # (N, 3, 3) 1/m: rest kernel tensors in the reference frame
 
     def _build_rigid(self) -> None:
         from rigid.bodies import add_tet_body
@@ -445,11 +437,7 @@ class World:
         if self.mode is None:  # nothing can break: the pieces are the moving bodies
             n = int(sum(1 for b, info in self.bodies.items() if alive[b] and not info.static))
             return dict(debris=0, small=0, large=n, total=n)
-        ps = self.particles
-        held = ps.alive & (ps.body >= 0)
-        n_body = max(int(ps.body.max()) + 1, len(alive), 1)
-        count = np.bincount(ps.body[held], minlength=n_body)  # particles per body
-        mass = np.bincount(ps.body[held], weights=ps.mass[held], minlength=n_body)  # kg per body
+        count, mass = self.store.body_totals(len(alive))  # particles and kg per body (a kernel)
         counts = dict(debris=self.debris_pieces, small=0, large=0)
         for b, info in self.bodies.items():
             if not alive[b] or not self.object_breakable[info.object_index]:
@@ -498,3 +486,5 @@ class World:
         for store in self.allocations.values():
             store.release()
         self.allocations.clear()
+        if self.store is not None:
+            self.store.release()

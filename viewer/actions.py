@@ -94,7 +94,7 @@ class Tuning:
             self._applied = {id(world): 1.0}  # a freshly built World has the scene's kernels
             done = 1.0
         if done != self.axis_factor:
-            world.kernel_G = kernel_tensors(world, self.axis_factor)
+            world.replace_particles(world.particles, kernel_tensors(world, self.axis_factor))
             self._applied[id(world)] = self.axis_factor
 
 
@@ -153,9 +153,9 @@ def _ball_material(world) -> int:
 def shoot_ball(world, origin, direction, speed: float, radius: float | None = None) -> int:
     """Add a steel ball centred at `origin` (m, world) moving at `speed` (m/s) along `direction`;
     returns its body id. Its particles join world.particles (material: STEEL, not breakable)."""
+    from geometry.particles import concat_particles
     from rigid.bodies import add_tet_body, ball_tetmesh
     from sim.bodies import BodyInfo
-    from sim.world import concat_particles
 
     if "rigid" not in world.stages:
         raise ConfigError("viewer.shoot", world.cfg.scene.name, "a scene with the 'rigid' effect")
@@ -169,15 +169,14 @@ def shoot_ball(world, origin, direction, speed: float, radius: float | None = No
     ball = build_particles(mesh, STEEL["density"])
     ball.material[:] = mat
     n_old = len(world.particles)
-    world.particles = concat_particles([world.particles, ball])
-    ids = np.arange(n_old, len(world.particles))
+    ps = concat_particles([world.particles, ball])  # a writable host copy: add_tet_body sets its bodies
+    ids = np.arange(n_old, len(ps))
     edge = float(np.cbrt(6.0 * math.sqrt(2.0) * ball.volume.mean()))
     G = np.broadcast_to(np.eye(3) / (BALL_KERNEL_SUPPORT * edge), (len(ids), 3, 3))
-    if getattr(world, "kernel_G", None) is not None:
-        world.kernel_G = np.concatenate([world.kernel_G, G])
     m = world.materials[mat]
-    bid = add_tet_body(world.rigid, world.particles, ids, v=d * speed, restitution=m.restitution, friction=m.friction)
-    c = world.particles.centroid[ids]
+    bid = add_tet_body(world.rigid, ps, ids, v=d * speed, restitution=m.restitution, friction=m.friction)
+    world.replace_particles(ps, None if world.kernel_G is None else np.concatenate([world.kernel_G, G]))
+    c = ps.centroid[ids]
     world.bodies[bid] = BodyInfo(object_index=-1, breakable=False, static=False, thickness=2.0 * r,
                                  resolution=r / BALL_SHELLS, bounds=(c.min(0), c.max(0)))
     world.surface_version += 1

@@ -111,17 +111,17 @@ def test_non_unit_quaternion_is_named():
 
 
 def test_bad_particle_table_is_named():
-    """Host-side particles are checked after every fracture event (surface_version changed)."""
+    """The particle store is checked after every fracture event (surface_version changed)."""
     w = World(load_scene("tet_cut_22"))
     try:
         check_state(w)  # the fresh table is fine
-        w.particles.volume[0] = -1e-9
+        w.store.particle_volume[0] = -1e-9
         w.surface_version += 1
         with pytest.raises(SimulationError) as info:
             check_state(w)
         assert info.value.field == "particle_volume" and info.value.entity == "particle" and info.value.index == 0
-        w.particles.volume[0] = 1e-9
-        w.kernel_G[0] = np.diag([1.0, 1.0, -1.0])  # not positive definite
+        w.store.particle_volume[0] = 1e-9
+        w.store.particle_kernel[0, 2, 2] = -1.0  # diag(+, +, -): not positive definite
         w.surface_version += 1
         with pytest.raises(SimulationError, match="kernel_G of particle 0"):
             check_state(w)

@@ -1,0 +1,497 @@
+"""The tet particles of a World in Taichi ndarrays (Sect. 5.1, 5.2): one store, worked on in place.
+
+One store holds the physical particles and the children adaptive subdivision makes (a kind flag, an
+alive flag, parent ids), their rest kernel tensors (Eq. 5) and the extra links of Fig. 5; fixed data
+(written once, when a particle is made) apart from changing data (body, alive, links). A particle's
+id is its row; children are appended, ids are never reused.
+
+A fracture event works on the store in place and touches only its body (issue 17, item 4):
+`take_body` gathers the struck body's particles, and the physical parents its children came from
+(Algorithm 1 analyses them, sim/fracture_stage.py), into a body-sized host `ParticleSet` with local
+indices; the host geometry code (geometry.fragments) cuts that; `put_body` writes back what changed
+and appends the children. Selection, gathering and scattering are kernels, so no whole-store array
+crosses to the host during an event: `transfers` records every copy to or from the host with its
+row count (a test counts an event's). `host()` is the whole store as a read-only `ParticleSet` for
+outputs (statistics, exports, the viewer), downloaded only when the store changed since the last.
+
+Ndarrays rather than fields: a kernel taking ndarrays compiles once for every capacity, so the store
+grows (doubling, copied on the device) without compiling anything, while a field passed as a
+template compiles its kernels per store (rigid/store.py pools its stores for that reason). Geometry
+stays float64 whatever the simulation precision: cuts, subdivision and mass properties run on it in
+float64 on the host, and a round trip is exact (a fracture event gives the same bits as before the
+store existed: tested with the scenes' state hashes). No `from __future__ import annotations` here:
+Taichi reads the kernels' annotations as objects.
+"""
+
+import numpy as np
+import taichi as ti
+
+from geometry.particles import KIND_SUBDIVIDED, ParticleSet
+
+GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
+MIN_CAPACITY = 64  # rows: the smallest store
+
+Arr = ti.types.ndarray()
+
+
+# ----------------------------------------------------------------------------------------- kernels
+@ti.kernel
+def _k_select_bodies(n: ti.i32, want: Arr, particle_alive: Arr, particle_body: Arr, particle_kind: Arr,
+                     particle_parent: Arr, particle_slot: Arr, select_ids: Arr, counter: Arr) -> ti.i32:
+    """Rows of the alive particles of the bodies flagged in `want` and of the parents of their
+    children, unordered; returns how many. Marks them in particle_slot (`_k_clear_slots` clears)."""
+    for i in range(n):
+        b = particle_body[i]
+        if particle_alive[i] != 0 and 0 <= b < want.shape[0] and want[b] != 0:
+            particle_slot[i] = 1
+            if particle_kind[i] == KIND_SUBDIVIDED:
+                particle_slot[particle_parent[i]] = 1  # a dead parent: never marked by the test above
+    counter[0] = 0
+    for i in range(n):
+        if particle_slot[i] != 0:
+            select_ids[ti.atomic_add(counter[0], 1)] = i
+    return counter[0]
+
+
+@ti.kernel
+def _k_copy_rows_i32(k: ti.i32, src: Arr, dst: Arr):
+    for j in range(k):
+        dst[j] = src[j]
+
+
+@ti.kernel
+def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_centroid: Arr, particle_volume: Arr,
+              particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr, particle_material: Arr,
+              particle_kind: Arr, particle_parent: Arr, particle_body: Arr, particle_alive: Arr,
+              particle_links: Arr, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
+              material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr):
+    """Rows `ids` into host arrays; particle ids become local ones (slot - 1). A link or parent
+    outside the gathered rows is kept as -2 - id, which reads as 'no link' to the host code and is
+    decoded again by `put_body`."""
+    for j in range(ids.shape[0]):
+        particle_slot[ids[j]] = j + 1
+    for j in range(ids.shape[0]):
+        i = ids[j]
+        for a, b in ti.ndrange(4, 3):
+            verts[j, a, b] = particle_rest_verts[i, a, b]
+        for a, b in ti.static(ti.ndrange(3, 3)):
+            kernel[j, a, b] = particle_kernel[i, a, b]
+        for a in ti.static(range(3)):
+            centroid[j, a] = particle_centroid[i, a]
+        volume[j] = particle_volume[i]
+        mass[j] = particle_mass[i]
+        radius[j] = particle_radius[i]
+        material[j] = particle_material[i]
+        kind[j] = particle_kind[i]
+        body[j] = particle_body[i]
+        alive[j] = particle_alive[i]
+        p = particle_parent[i]
+        parent[j] = -1
+        if p >= 0:
+            parent[j] = particle_slot[p] - 1 if particle_slot[p] > 0 else -2 - p
+        for a in ti.static(range(4)):
+            t = particle_links[i, a]
+            links[j, a] = -1
+            if t >= 0:
+                links[j, a] = particle_slot[t] - 1 if particle_slot[t] > 0 else -2 - t
+
+
+@ti.kernel
+def _k_select_extra(ne: ti.i32, link_extra: Arr, link_extra_alive: Arr, particle_slot: Arr, select_rows: Arr,
+                    counter: Arr) -> ti.i32:
+    """Live extra links with both ends gathered, unordered; returns how many."""
+    counter[0] = 0
+    for e in range(ne):
+        if link_extra_alive[e] != 0 and particle_slot[link_extra[e, 0]] > 0 and particle_slot[link_extra[e, 1]] > 0:
+            select_rows[ti.atomic_add(counter[0], 1)] = e
+    return counter[0]
+
+
+@ti.kernel
+def _k_gather_extra(rows: Arr, link_extra: Arr, particle_slot: Arr, pairs: Arr):
+    for j in range(rows.shape[0]):
+        for a in ti.static(range(2)):
+            pairs[j, a] = particle_slot[link_extra[rows[j], a]] - 1
+
+
+@ti.kernel
+def _k_take_f64(ids: Arr, src: Arr, out: Arr):
+    for j in range(ids.shape[0]):
+        out[j] = src[ids[j]]
+
+
+@ti.kernel
+def _k_clear_slots(ids: Arr, particle_slot: Arr):
+    for j in range(ids.shape[0]):
+        particle_slot[ids[j]] = 0
+
+
+@ti.kernel
+def _k_put_changing(ids: Arr, body: Arr, alive: Arr, links: Arr, particle_body: Arr, particle_alive: Arr,
+                    particle_links: Arr):
+    for j in range(ids.shape[0]):
+        i = ids[j]
+        particle_body[i] = body[j]
+        particle_alive[i] = alive[j]
+        for a in ti.static(range(4)):
+            particle_links[i, a] = links[j, a]
+
+
+@ti.kernel
+def _k_put_fixed(ids: Arr, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
+                 material: Arr, kind: Arr, parent: Arr, particle_rest_verts: Arr, particle_centroid: Arr,
+                 particle_volume: Arr, particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr,
+                 particle_material: Arr, particle_kind: Arr, particle_parent: Arr):
+    for j in range(ids.shape[0]):
+        i = ids[j]
+        for a, b in ti.ndrange(4, 3):
+            particle_rest_verts[i, a, b] = verts[j, a, b]
+        for a, b in ti.static(ti.ndrange(3, 3)):
+            particle_kernel[i, a, b] = kernel[j, a, b]
+        for a in ti.static(range(3)):
+            particle_centroid[i, a] = centroid[j, a]
+        particle_volume[i] = volume[j]
+        particle_mass[i] = mass[j]
+        particle_radius[i] = radius[j]
+        particle_material[i] = material[j]
+        particle_kind[i] = kind[j]
+        particle_parent[i] = parent[j]
+
+
+@ti.kernel
+def _k_kill_extra(rows: Arr, link_extra_alive: Arr):
+    for j in range(rows.shape[0]):
+        link_extra_alive[rows[j]] = 0
+
+
+@ti.kernel
+def _k_put_extra(first: ti.i32, pairs: Arr, link_extra: Arr, link_extra_alive: Arr):
+    for j in range(pairs.shape[0]):
+        for a in ti.static(range(2)):
+            link_extra[first + j, a] = pairs[j, a]
+        link_extra_alive[first + j] = 1
+
+
+@ti.kernel
+def _k_compact_extra(ne: ti.i32, link_extra: Arr, link_extra_alive: Arr) -> ti.i32:
+    """Live extra links moved to the front, in order (one serial task); returns how many."""
+    kept = 0
+    ti.loop_config(serialize=True)
+    for e in range(ne):
+        if link_extra_alive[e] != 0:
+            for a in ti.static(range(2)):
+                link_extra[kept, a] = link_extra[e, a]
+            link_extra_alive[e] = 0
+            link_extra_alive[kept] = 1
+            kept += 1
+    return kept
+
+
+@ti.kernel
+def _k_body_totals(n: ti.i32, particle_alive: Arr, particle_body: Arr, particle_mass: Arr, count: Arr, mass: Arr):
+    """Alive particles and their mass (kg) per body, for bodies below count.shape[0]."""
+    for i in range(n):
+        b = particle_body[i]
+        if particle_alive[i] != 0 and 0 <= b < count.shape[0]:
+            ti.atomic_add(count[b], 1)
+            ti.atomic_add(mass[b], particle_mass[i])
+
+
+@ti.func
+def _finite(x) -> ti.i32:
+    return ti.abs(x) < 1e300  # False for inf and NaN
+
+
+@ti.kernel
+def _k_first_invalid(n: ti.i32, check_kernel: ti.i32, particle_alive: Arr, particle_centroid: Arr,
+                     particle_rest_verts: Arr, particle_volume: Arr, particle_mass: Arr, particle_kernel: Arr,
+                     first: Arr):
+    """Per check (centroid, rest verts, volume, mass, kernel tensor), the first alive particle that
+    fails it, or n: non-finite values, volume or mass <= 0, a kernel tensor whose symmetric part is
+    not positive definite (Sylvester: its leading minors > 0)."""
+    for c in range(5):
+        first[c] = n
+    for i in range(n):
+        if particle_alive[i] != 0:
+            bad = ti.Vector([0, 0, 0, 0, 0])
+            for a in ti.static(range(3)):
+                if not _finite(particle_centroid[i, a]):
+                    bad[0] = 1
+            for a, b in ti.ndrange(4, 3):
+                if not _finite(particle_rest_verts[i, a, b]):
+                    bad[1] = 1
+            if not (_finite(particle_volume[i]) and particle_volume[i] > 0.0):
+                bad[2] = 1
+            if not (_finite(particle_mass[i]) and particle_mass[i] > 0.0):
+                bad[3] = 1
+            if check_kernel != 0:
+                g = ti.Matrix.zero(ti.f64, 3, 3)
+                for a, b in ti.static(ti.ndrange(3, 3)):
+                    g[a, b] = 0.5 * (particle_kernel[i, a, b] + particle_kernel[i, b, a])
+                m2 = g[0, 0] * g[1, 1] - g[0, 1] * g[1, 0]
+                m3 = g.determinant()
+                if not (_finite(m3) and g[0, 0] > 0.0 and m2 > 0.0 and m3 > 0.0):
+                    bad[4] = 1
+            for c in ti.static(range(5)):
+                if bad[c] != 0:
+                    ti.atomic_min(first[c], i)
+
+
+@ti.kernel
+def _k_copy_store(n: ti.i32, src: Arr, dst: Arr):
+    """Rows 0..n-1 of one store array into a bigger one of the same rank and trailing shape."""
+    for I in ti.grouped(src):
+        if I[0] < n:
+            dst[I] = src[I]
+
+
+# ------------------------------------------------------------------------------------------- store
+# store array -> (trailing shape, Taichi dtype, host dtype); the first five are fixed data
+_FIXED = {
+    "particle_rest_verts": ((4, 3), GEOMETRY_DTYPE, np.float64),  # (C, 4, 3) m: tet vertices, reference frame
+    "particle_centroid": ((3,), GEOMETRY_DTYPE, np.float64),  # (C, 3) m: rest centroid
+    "particle_volume": ((), GEOMETRY_DTYPE, np.float64),  # (C,) m^3: tet volume
+    "particle_mass": ((), GEOMETRY_DTYPE, np.float64),  # (C,) kg
+    "particle_radius": ((), GEOMETRY_DTYPE, np.float64),  # (C,) m: (3V / 4 pi)^(1/3)
+    "particle_kernel": ((3, 3), GEOMETRY_DTYPE, np.float64),  # (C, 3, 3) 1/m: rest kernel tensor G0 (Eq. 5)
+    "particle_material": ((), ti.i32, np.int32),  # (C,) -: material id
+    "particle_kind": ((), ti.i32, np.int8),  # (C,) -: KIND_PHYSICAL or KIND_SUBDIVIDED
+    "particle_parent": ((), ti.i32, np.int64),  # (C,) -: parent of a subdivided child, or -1
+}
+_CHANGING = {
+    "particle_body": ((), ti.i32, np.int32),  # (C,) -: rigid body, -1 once freed (debris)
+    "particle_alive": ((), ti.i32, bool),  # (C,) flag: 0 once replaced by its children or removed
+    "particle_links": ((4,), ti.i32, np.int64),  # (C, 4) -: particle across tet face k, or -1
+}
+_HOST_NAME = {"particle_rest_verts": "rest_verts", "particle_kernel": None}  # else: name minus 'particle_'
+
+
+class ParticleStore:
+    """Tet particles in Taichi ndarrays (see the module docstring); `count` rows are in use."""
+
+    def __init__(self, particles: ParticleSet, kernel_G: np.ndarray | None, capacity: int = 0) -> None:
+        self.transfers: list[tuple[str, int]] = []  # (what, rows) of every copy to or from the host
+        self.version = 0  # bumped by every change; host() downloads again when it moved
+        self.body_stamp: dict[int, int] = {}  # body -> version of its last change (surface caches)
+        self.count = 0  # rows in use (particles ever made)
+        self.extra_count = 0  # rows of link_extra in use, dead ones included until compacted
+        self._host = None  # (version, ParticleSet, kernel tensors) of the last download
+        self._allocate(max(MIN_CAPACITY, int(capacity), 2 * len(particles)),
+                       max(MIN_CAPACITY, len(particles), 4 * len(particles.extra_links)))
+        self.reset(particles, kernel_G)
+
+    # ---- allocation -----------------------------------------------------------------------------
+    def _allocate(self, capacity: int, extra_capacity: int) -> None:
+        self.capacity = int(capacity)
+        self.extra_capacity = int(extra_capacity)
+        for name, (shape, dtype, _) in {**_FIXED, **_CHANGING}.items():
+            setattr(self, name, ti.ndarray(dtype, (self.capacity, *shape)))
+        self.particle_slot = ti.ndarray(ti.i32, (self.capacity,))  # (C,) -: local index + 1 in the event, else 0
+        self.select_ids = ti.ndarray(ti.i32, (self.capacity,))  # (C,) -: scratch of a selection
+        self.link_extra = ti.ndarray(ti.i32, (self.extra_capacity, 2))  # (CE, 2) -: particles of an extra link
+        self.link_extra_alive = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) flag: 0 once removed
+        self.select_rows = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) -: scratch of a selection
+        self.counter = ti.ndarray(ti.i32, (1,))  # () -: selection counter
+
+    def _grow(self, rows: int, extra_rows: int) -> None:
+        """Room for `rows` particles and `extra_rows` extra links: double and copy on the device (no
+        kernel compiles: ndarray kernels are compiled per dtype and rank, not per size)."""
+        if rows <= self.capacity and extra_rows <= self.extra_capacity:
+            return
+        old = {name: getattr(self, name) for name in (*_FIXED, *_CHANGING, "link_extra", "link_extra_alive")}
+        n, ne = self.count, self.extra_count
+        cap, ecap = self.capacity, self.extra_capacity
+        while cap < rows:
+            cap *= 2
+        while ecap < extra_rows:
+            ecap *= 2
+        self._allocate(cap, ecap)
+        for name, src in old.items():
+            rows_in_use = ne if name.startswith("link_extra") else n
+            _k_copy_store(rows_in_use, src, getattr(self, name))
+
+    def reset(self, particles: ParticleSet, kernel_G: np.ndarray | None) -> None:
+        """Replace the whole content (input: a World's build, the viewer's added ball). Without
+        kernel tensors (a scene with neither fracture nor elastic effect) the column holds zeros."""
+        n = len(particles)
+        self.has_kernels = kernel_G is not None
+        if kernel_G is None:
+            kernel_G = np.zeros((n, 3, 3))
+        self._grow(n, len(particles.extra_links))
+        self.count, self.extra_count = 0, 0
+        host = _host_columns(particles, kernel_G)
+        ids = np.arange(n, dtype=np.int32)
+        self._put_rows(ids, host, new=True)
+        self.count = n
+        self._append_extra(particles.extra_links)
+        self._changed(np.unique(particles.body[particles.body >= 0]))
+        self.transfers.append(("reset", n))
+
+    def release(self) -> None:
+        for name in (*_FIXED, *_CHANGING, "particle_slot", "select_ids", "link_extra", "link_extra_alive",
+                     "select_rows", "counter"):
+            setattr(self, name, None)  # the last host() copy stays readable
+
+    # ---- a fracture event ------------------------------------------------------------------------
+    def take_bodies(self, bodies) -> tuple[np.ndarray, ParticleSet, np.ndarray, np.ndarray]:
+        """The alive particles of `bodies` and the parents of their children, gathered: (store ids (K,)
+        ascending, a local ParticleSet of K rows, their kernel tensors (K, 3, 3) 1/m, the store rows
+        of their extra links). `put_body` writes a changed copy of one body back."""
+        bodies = np.asarray(list(bodies), dtype=np.int64).reshape(-1)
+        want = np.zeros(int(bodies.max(initial=-1)) + 1 or 1, dtype=np.int32)  # (B,) flag per body id
+        want[bodies[bodies >= 0]] = 1
+        k = _k_select_bodies(self.count, want, self.particle_alive, self.particle_body, self.particle_kind,
+                           self.particle_parent, self.particle_slot, self.select_ids, self.counter)
+        ids = np.empty(k, dtype=np.int32)
+        _k_copy_rows_i32(k, self.select_ids, ids)
+        ids.sort()  # the order of the whole-world arrays: the host code's results do not change
+        cols = {name: np.empty((k, *shape), dtype=_kernel_dtype(host))
+                for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
+        _k_gather(ids, self.particle_slot, *(getattr(self, name) for name in (*_FIXED, *_CHANGING)),
+                  *cols.values())
+        ne = _k_select_extra(self.extra_count, self.link_extra, self.link_extra_alive, self.particle_slot,
+                             self.select_rows, self.counter)
+        rows = np.empty(ne, dtype=np.int32)
+        _k_copy_rows_i32(ne, self.select_rows, rows)
+        rows.sort()
+        pairs = np.empty((ne, 2), dtype=np.int32)
+        _k_gather_extra(rows, self.link_extra, self.particle_slot, pairs)
+        _k_clear_slots(ids, self.particle_slot)
+        self.transfers.append(("take_bodies", k))
+        ps = _particle_set(cols, pairs)
+        return ids.astype(np.int64), ps, cols["particle_kernel"], rows
+
+    def put_body(self, ids: np.ndarray, ps: ParticleSet, kernel_G: np.ndarray, extra_rows: np.ndarray) -> np.ndarray:
+        """Write back an event's local ParticleSet: rows 0..len(ids)-1 are the gathered particles
+        (changed body, alive and links), the rest are new children appended to the store with their
+        kernel tensors. Returns the global id of every local row."""
+        k, n_new = len(ids), len(ps) - len(ids)
+        self._grow(self.count + n_new, self.extra_count + len(ps.extra_links))
+        global_id = self.global_ids(ids, len(ps))
+        host = _host_columns(ps, kernel_G)
+        for name in ("particle_links", "particle_parent"):
+            host[name] = _to_global(host[name], global_id)
+        self._put_rows(global_id[k:].astype(np.int32), {n: c[k:] for n, c in host.items()}, new=True)
+        self._put_rows(np.asarray(ids, np.int32), {n: c[:k] for n, c in host.items()}, new=False)
+        self.count += n_new
+        _k_kill_extra(np.asarray(extra_rows, np.int32), self.link_extra_alive)
+        self._append_extra(global_id[ps.extra_links] if len(ps.extra_links) else ps.extra_links)
+        self.transfers.append(("put_body", len(ps)))
+        self._changed(np.unique(ps.body[ps.alive & (ps.body >= 0)]))
+        return global_id
+
+    def warm_kernels(self) -> None:
+        """Launch every kernel of an event once on nothing (issue 16: no compile after the build)."""
+        ids, ps, G, rows = self.take_bodies([])
+        self.put_body(ids, ps, G, rows)
+        self.take_mass(np.zeros(0, np.int64))
+        self.first_invalid()
+        self.body_totals(1)
+        self._append_extra(np.zeros((1, 2)))  # one row, removed again: the put kernel compiles
+        _k_kill_extra(np.array([self.extra_count - 1], np.int32), self.link_extra_alive)
+        self.extra_count = _k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
+        for name in (*_FIXED, *_CHANGING, "link_extra", "link_extra_alive"):  # the copies of a growth
+            _k_copy_store(0, getattr(self, name), getattr(self, name))
+        self.transfers.clear()
+
+    def global_ids(self, ids: np.ndarray, n_local: int) -> np.ndarray:
+        """(n_local,) store id of every row of a local set taken as `ids`: the gathered rows keep
+        theirs, rows beyond them (children) get the next free ids, as `put_body` will give them."""
+        n_new = n_local - len(ids)
+        return np.concatenate([np.asarray(ids, np.int64), self.count + np.arange(n_new, dtype=np.int64)])
+
+    def _put_rows(self, ids: np.ndarray, host: dict, new: bool) -> None:
+        if new:
+            _k_put_fixed(ids, *(host[name] for name in _FIXED), *(getattr(self, name) for name in _FIXED))
+        _k_put_changing(ids, *(host[name] for name in _CHANGING), *(getattr(self, name) for name in _CHANGING))
+
+    def _append_extra(self, pairs: np.ndarray) -> None:
+        pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
+        if self.extra_count + len(pairs) > self.extra_capacity:
+            self.extra_count = _k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
+            self._grow(self.count, self.extra_count + len(pairs))
+        if len(pairs):
+            _k_put_extra(self.extra_count, pairs, self.link_extra, self.link_extra_alive)
+        self.extra_count += len(pairs)
+
+    def _changed(self, bodies) -> None:
+        self.version += 1
+        for b in np.asarray(bodies).tolist():
+            self.body_stamp[int(b)] = self.version
+
+    # ---- reading ---------------------------------------------------------------------------------
+    def body_totals(self, n_bodies: int) -> tuple[np.ndarray, np.ndarray]:
+        """(alive particles (B,), their mass (B,) kg) per body id below n_bodies: one kernel, B rows back."""
+        count = np.zeros(max(1, n_bodies), dtype=np.int32)
+        mass = np.zeros(max(1, n_bodies), dtype=np.float64)
+        _k_body_totals(self.count, self.particle_alive, self.particle_body, self.particle_mass, count, mass)
+        self.transfers.append(("body_totals", len(count)))
+        return count[:n_bodies], mass[:n_bodies]
+
+    def take_mass(self, ids: np.ndarray) -> np.ndarray:
+        """(K,) kg: the masses of particles `ids` (K rows back)."""
+        out = np.empty(len(ids), dtype=np.float64)
+        _k_take_f64(np.asarray(ids, np.int32), self.particle_mass, out)
+        self.transfers.append(("take_mass", len(ids)))
+        return out
+
+    def first_invalid(self) -> dict[str, int]:
+        """Per check, the first alive particle that fails it (see `_k_first_invalid`), or -1."""
+        first = np.zeros(5, dtype=np.int32)
+        _k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
+                         self.particle_rest_verts, self.particle_volume, self.particle_mass, self.particle_kernel,
+                         first)
+        names = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
+        return {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
+
+    def host(self) -> tuple[ParticleSet, np.ndarray]:
+        """The whole store as a read-only ParticleSet and its kernel tensors (N, 3, 3) 1/m: an output
+        copy, downloaded when the store changed since the last call."""
+        if self._host is None or self._host[0] != self.version:
+            n = self.count
+            cols = {name: getattr(self, name).to_numpy()[:n].astype(host, copy=False)
+                    for name, (_, _, host) in {**_FIXED, **_CHANGING}.items()}
+            alive = self.link_extra_alive.to_numpy()[: self.extra_count] != 0
+            pairs = self.link_extra.to_numpy()[: self.extra_count][alive].astype(np.int64)
+            self.transfers.append(("host", n))
+            ps = _particle_set(cols, pairs)
+            G = cols["particle_kernel"]
+            for a in (*vars(ps).values(), G):
+                a.flags.writeable = False
+            self._host = (self.version, ps, G)
+        return self._host[1], self._host[2]
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _kernel_dtype(host_dtype) -> type:
+    return np.float64 if host_dtype is np.float64 else np.int32
+
+
+def _host_columns(ps: ParticleSet, kernel_G: np.ndarray) -> dict[str, np.ndarray]:
+    """The store's columns of a ParticleSet, in the dtypes its kernels take."""
+    cols = {}
+    for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items():
+        attr = _HOST_NAME.get(name, name[len("particle_"):])
+        src = kernel_G if name == "particle_kernel" else getattr(ps, attr)
+        cols[name] = np.ascontiguousarray(src, dtype=_kernel_dtype(host)).reshape(len(ps), *shape)
+    return cols
+
+
+def _particle_set(cols: dict[str, np.ndarray], extra_pairs: np.ndarray) -> ParticleSet:
+    def col(name):
+        return cols[name].astype(_FIXED.get(name, _CHANGING.get(name))[2], copy=False)
+
+    return ParticleSet(
+        rest_verts=col("particle_rest_verts"), volume=col("particle_volume"), mass=col("particle_mass"),
+        centroid=col("particle_centroid"), radius=col("particle_radius"), material=col("particle_material"),
+        body=col("particle_body"), links=col("particle_links"), kind=col("particle_kind"),
+        parent=col("particle_parent"), alive=col("particle_alive"),
+        extra_links=np.asarray(extra_pairs, dtype=np.int64).reshape(-1, 2),
+    )
+
+
+def _to_global(local: np.ndarray, global_id: np.ndarray) -> np.ndarray:
+    """Local particle ids -> store ids: -1 stays, -2 - id (outside the gathered rows) decodes."""
+    local = np.asarray(local, dtype=np.int64)
+    out = np.where(local >= 0, global_id[np.maximum(local, 0)], np.where(local <= -2, -2 - local, -1))
+    return out.astype(np.int32)
