@@ -30,6 +30,10 @@ from geometry.particles import KIND_SUBDIVIDED, ParticleSet
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
+# rows per particle built: subdivision's children at the end of the paper scenes' runs make 2.2 (pot)
+# to 2.7 (glass_r3) rows per physical particle; growing (doubling) costs one compile of the copy
+# kernels in a process (~0.2 s), so the store starts with room for that
+HEADROOM = 4
 
 Arr = ti.types.ndarray()
 
@@ -39,7 +43,7 @@ Arr = ti.types.ndarray()
 def _k_select_bodies(n: ti.i32, want: Arr, particle_alive: Arr, particle_body: Arr, particle_kind: Arr,
                      particle_parent: Arr, particle_slot: Arr, select_ids: Arr, counter: Arr) -> ti.i32:
     """Rows of the alive particles of the bodies flagged in `want` and of the parents of their
-    children, unordered; returns how many. Marks them in particle_slot (`_k_clear_slots` clears)."""
+    children, unordered; returns how many. Marks them in particle_slot (`_k_gather_extra` clears them)."""
     for i in range(n):
         b = particle_body[i]
         if particle_alive[i] != 0 and 0 <= b < want.shape[0] and want[b] != 0:
@@ -64,10 +68,12 @@ def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_c
               particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr, particle_material: Arr,
               particle_kind: Arr, particle_parent: Arr, particle_body: Arr, particle_alive: Arr,
               particle_links: Arr, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
-              material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr):
+              material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr, ne: ti.i32,
+              link_extra: Arr, link_extra_alive: Arr, select_rows: Arr, counter: Arr) -> ti.i32:
     """Rows `ids` into host arrays; particle ids become local ones (slot - 1). A link or parent
     outside the gathered rows is kept as -2 - id, which reads as 'no link' to the host code and is
-    decoded again by `put_body`."""
+    decoded again by `put_body`. Then the live extra links with both ends gathered, unordered;
+    returns how many."""
     for j in range(ids.shape[0]):
         particle_slot[ids[j]] = j + 1
     for j in range(ids.shape[0]):
@@ -94,12 +100,6 @@ def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_c
             links[j, a] = -1
             if t >= 0:
                 links[j, a] = particle_slot[t] - 1 if particle_slot[t] > 0 else -2 - t
-
-
-@ti.kernel
-def _k_select_extra(ne: ti.i32, link_extra: Arr, link_extra_alive: Arr, particle_slot: Arr, select_rows: Arr,
-                    counter: Arr) -> ti.i32:
-    """Live extra links with both ends gathered, unordered; returns how many."""
     counter[0] = 0
     for e in range(ne):
         if link_extra_alive[e] != 0 and particle_slot[link_extra[e, 0]] > 0 and particle_slot[link_extra[e, 1]] > 0:
@@ -108,10 +108,13 @@ def _k_select_extra(ne: ti.i32, link_extra: Arr, link_extra_alive: Arr, particle
 
 
 @ti.kernel
-def _k_gather_extra(rows: Arr, link_extra: Arr, particle_slot: Arr, pairs: Arr):
+def _k_gather_extra(rows: Arr, ids: Arr, link_extra: Arr, particle_slot: Arr, pairs: Arr):
+    """The extra links `rows` with local ids; then the marks of the gathered rows `ids` cleared."""
     for j in range(rows.shape[0]):
         for a in ti.static(range(2)):
             pairs[j, a] = particle_slot[link_extra[rows[j], a]] - 1
+    for j in range(ids.shape[0]):
+        particle_slot[ids[j]] = 0
 
 
 @ti.kernel
@@ -121,51 +124,39 @@ def _k_take_f64(ids: Arr, src: Arr, out: Arr):
 
 
 @ti.kernel
-def _k_clear_slots(ids: Arr, particle_slot: Arr):
-    for j in range(ids.shape[0]):
-        particle_slot[ids[j]] = 0
-
-
-@ti.kernel
-def _k_put_changing(ids: Arr, body: Arr, alive: Arr, links: Arr, particle_body: Arr, particle_alive: Arr,
-                    particle_links: Arr):
+def _k_put(ids: Arr, made: ti.i32, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
+           material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr, particle_rest_verts: Arr,
+           particle_centroid: Arr, particle_volume: Arr, particle_mass: Arr, particle_radius: Arr,
+           particle_kernel: Arr, particle_material: Arr, particle_kind: Arr, particle_parent: Arr,
+           particle_body: Arr, particle_alive: Arr, particle_links: Arr):
+    """Host rows into store rows `ids`: the changing columns, and the fixed ones when `made` (new
+    particles; the fixed data of an existing particle never changes)."""
     for j in range(ids.shape[0]):
         i = ids[j]
         particle_body[i] = body[j]
         particle_alive[i] = alive[j]
         for a in ti.static(range(4)):
             particle_links[i, a] = links[j, a]
+        if made != 0:
+            for a, b in ti.ndrange(4, 3):
+                particle_rest_verts[i, a, b] = verts[j, a, b]
+            for a, b in ti.static(ti.ndrange(3, 3)):
+                particle_kernel[i, a, b] = kernel[j, a, b]
+            for a in ti.static(range(3)):
+                particle_centroid[i, a] = centroid[j, a]
+            particle_volume[i] = volume[j]
+            particle_mass[i] = mass[j]
+            particle_radius[i] = radius[j]
+            particle_material[i] = material[j]
+            particle_kind[i] = kind[j]
+            particle_parent[i] = parent[j]
 
 
 @ti.kernel
-def _k_put_fixed(ids: Arr, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
-                 material: Arr, kind: Arr, parent: Arr, particle_rest_verts: Arr, particle_centroid: Arr,
-                 particle_volume: Arr, particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr,
-                 particle_material: Arr, particle_kind: Arr, particle_parent: Arr):
-    for j in range(ids.shape[0]):
-        i = ids[j]
-        for a, b in ti.ndrange(4, 3):
-            particle_rest_verts[i, a, b] = verts[j, a, b]
-        for a, b in ti.static(ti.ndrange(3, 3)):
-            particle_kernel[i, a, b] = kernel[j, a, b]
-        for a in ti.static(range(3)):
-            particle_centroid[i, a] = centroid[j, a]
-        particle_volume[i] = volume[j]
-        particle_mass[i] = mass[j]
-        particle_radius[i] = radius[j]
-        particle_material[i] = material[j]
-        particle_kind[i] = kind[j]
-        particle_parent[i] = parent[j]
-
-
-@ti.kernel
-def _k_kill_extra(rows: Arr, link_extra_alive: Arr):
-    for j in range(rows.shape[0]):
-        link_extra_alive[rows[j]] = 0
-
-
-@ti.kernel
-def _k_put_extra(first: ti.i32, pairs: Arr, link_extra: Arr, link_extra_alive: Arr):
+def _k_replace_extra(kill: Arr, first: ti.i32, pairs: Arr, link_extra: Arr, link_extra_alive: Arr):
+    """Extra links `kill` removed, `pairs` appended from row `first` on."""
+    for j in range(kill.shape[0]):
+        link_extra_alive[kill[j]] = 0
     for j in range(pairs.shape[0]):
         for a in ti.static(range(2)):
             link_extra[first + j, a] = pairs[j, a]
@@ -276,7 +267,7 @@ class ParticleStore:
         self.count = 0  # rows in use (particles ever made)
         self.extra_count = 0  # rows of link_extra in use, dead ones included until compacted
         self._host = None  # (version, ParticleSet, kernel tensors) of the last download
-        self._allocate(max(MIN_CAPACITY, int(capacity), 2 * len(particles)),
+        self._allocate(max(MIN_CAPACITY, int(capacity), HEADROOM * len(particles)),
                        max(MIN_CAPACITY, len(particles), 4 * len(particles.extra_links)))
         self.reset(particles, kernel_G)
 
@@ -321,7 +312,7 @@ class ParticleStore:
         self.count, self.extra_count = 0, 0
         host = _host_columns(particles, kernel_G)
         ids = np.arange(n, dtype=np.int32)
-        self._put_rows(ids, host, new=True)
+        self._put_rows(ids, host, made=True)
         self.count = n
         self._append_extra(particles.extra_links)
         self._changed(np.unique(particles.body[particles.body >= 0]))
@@ -347,16 +338,13 @@ class ParticleStore:
         ids.sort()  # the order of the whole-world arrays: the host code's results do not change
         cols = {name: np.empty((k, *shape), dtype=_kernel_dtype(host))
                 for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
-        _k_gather(ids, self.particle_slot, *(getattr(self, name) for name in (*_FIXED, *_CHANGING)),
-                  *cols.values())
-        ne = _k_select_extra(self.extra_count, self.link_extra, self.link_extra_alive, self.particle_slot,
-                             self.select_rows, self.counter)
+        ne = _k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
+                       self.link_extra_alive, self.select_rows, self.counter)
         rows = np.empty(ne, dtype=np.int32)
         _k_copy_rows_i32(ne, self.select_rows, rows)
         rows.sort()
         pairs = np.empty((ne, 2), dtype=np.int32)
-        _k_gather_extra(rows, self.link_extra, self.particle_slot, pairs)
-        _k_clear_slots(ids, self.particle_slot)
+        _k_gather_extra(rows, ids, self.link_extra, self.particle_slot, pairs)
         self.transfers.append(("take_bodies", k))
         ps = _particle_set(cols, pairs)
         return ids.astype(np.int64), ps, cols["particle_kernel"], rows
@@ -371,27 +359,24 @@ class ParticleStore:
         host = _host_columns(ps, kernel_G)
         for name in ("particle_links", "particle_parent"):
             host[name] = _to_global(host[name], global_id)
-        self._put_rows(global_id[k:].astype(np.int32), {n: c[k:] for n, c in host.items()}, new=True)
-        self._put_rows(np.asarray(ids, np.int32), {n: c[:k] for n, c in host.items()}, new=False)
+        self._put_rows(global_id[k:].astype(np.int32), {n: c[k:] for n, c in host.items()}, made=True)
+        self._put_rows(np.asarray(ids, np.int32), {n: c[:k] for n, c in host.items()}, made=False)
         self.count += n_new
-        _k_kill_extra(np.asarray(extra_rows, np.int32), self.link_extra_alive)
-        self._append_extra(global_id[ps.extra_links] if len(ps.extra_links) else ps.extra_links)
+        pairs = global_id[ps.extra_links] if len(ps.extra_links) else ps.extra_links
+        self._append_extra(pairs, kill=extra_rows)
         self.transfers.append(("put_body", len(ps)))
         self._changed(np.unique(ps.body[ps.alive & (ps.body >= 0)]))
         return global_id
 
     def warm_kernels(self) -> None:
-        """Launch every kernel of an event once on nothing (issue 16: no compile after the build)."""
+        """Launch every kernel of an event and of a frame after it once on nothing (issue 16: no
+        compile after the build). Growth and compaction are not warmed: the capacities (HEADROOM x
+        the particles, as many extra links as particles) hold the paper scenes' runs."""
         ids, ps, G, rows = self.take_bodies([])
         self.put_body(ids, ps, G, rows)
         self.take_mass(np.zeros(0, np.int64))
         self.first_invalid()
         self.body_totals(1)
-        self._append_extra(np.zeros((1, 2)))  # one row, removed again: the put kernel compiles
-        _k_kill_extra(np.array([self.extra_count - 1], np.int32), self.link_extra_alive)
-        self.extra_count = _k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
-        for name in (*_FIXED, *_CHANGING, "link_extra", "link_extra_alive"):  # the copies of a growth
-            _k_copy_store(0, getattr(self, name), getattr(self, name))
         self.transfers.clear()
 
     def global_ids(self, ids: np.ndarray, n_local: int) -> np.ndarray:
@@ -400,18 +385,22 @@ class ParticleStore:
         n_new = n_local - len(ids)
         return np.concatenate([np.asarray(ids, np.int64), self.count + np.arange(n_new, dtype=np.int64)])
 
-    def _put_rows(self, ids: np.ndarray, host: dict, new: bool) -> None:
-        if new:
-            _k_put_fixed(ids, *(host[name] for name in _FIXED), *(getattr(self, name) for name in _FIXED))
-        _k_put_changing(ids, *(host[name] for name in _CHANGING), *(getattr(self, name) for name in _CHANGING))
+    def _columns(self) -> list:
+        return [getattr(self, name) for name in (*_FIXED, *_CHANGING)]
 
-    def _append_extra(self, pairs: np.ndarray) -> None:
+    def _put_rows(self, ids: np.ndarray, host: dict, made: bool) -> None:
+        _k_put(ids, int(made), *(host[name] for name in (*_FIXED, *_CHANGING)), *self._columns())
+
+    def _append_extra(self, pairs: np.ndarray, kill=()) -> None:
+        """Remove the extra links at store rows `kill`, append `pairs` (store ids)."""
         pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
+        kill = np.asarray(kill, dtype=np.int32).reshape(-1)
         if self.extra_count + len(pairs) > self.extra_capacity:
+            _k_replace_extra(kill, 0, pairs[:0], self.link_extra, self.link_extra_alive)
+            kill = kill[:0]
             self.extra_count = _k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
             self._grow(self.count, self.extra_count + len(pairs))
-        if len(pairs):
-            _k_put_extra(self.extra_count, pairs, self.link_extra, self.link_extra_alive)
+        _k_replace_extra(kill, self.extra_count, pairs, self.link_extra, self.link_extra_alive)
         self.extra_count += len(pairs)
 
     def _changed(self, bodies) -> None:

@@ -1,0 +1,111 @@
+"""The particle store (geometry/particle_store.py): Taichi ndarrays that a fracture event works on in
+place. A round trip is exact; a body taken, cut by the host geometry code and put back gives, bit for
+bit, what cutting the whole-world arrays gives (the store's ids for the children included); the store
+grows without losing a row; its device checks agree with numpy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from geometry.cutting import Crack
+from geometry.fragments import apply_cracks
+from geometry.particles import concat_particles, transform_particles
+from rigid.bodies import box_tetmesh
+
+pytestmark = pytest.mark.usefixtures("taichi_runtime")
+
+
+def _two_blocks():
+    """Two 6 x 3 x 2-cell blocks (bodies 0 and 1, 216 tets each) side by side; kernel tensors."""
+    from geometry.particles import build_particles
+
+    block = build_particles(box_tetmesh((0.06, 0.03, 0.02), (6, 3, 2)), 2500.0)
+    other = transform_particles(block, np.eye(3), np.array([0.2, 0.0, 0.0]))
+    other.body[:] = 1
+    ps = concat_particles([block, other])
+    G = np.einsum("n,ij->nij", 1.0 / (2.0 * ps.radius), np.eye(3))  # (N, 3, 3) 1/m
+    return ps, G
+
+
+def _same(a, b, extra_as_sets: bool = False):
+    for name in ("rest_verts", "volume", "mass", "centroid", "radius", "material", "body", "links", "kind", "parent",
+                 "alive"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and np.array_equal(x, y), name
+    ea, eb = np.sort(a.extra_links, axis=1), np.sort(b.extra_links, axis=1)
+    if extra_as_sets:
+        ea, eb = np.unique(ea, axis=0), np.unique(eb, axis=0)
+    assert np.array_equal(ea, eb)
+
+
+def test_a_round_trip_is_exact():
+    from geometry.particle_store import ParticleStore
+
+    ps, G = _two_blocks()
+    store = ParticleStore(ps, G)
+    host, G2 = store.host()
+    _same(ps, host)
+    assert np.array_equal(G, G2) and not host.volume.flags.writeable  # an output copy, read-only
+    ids, part, G_part, _ = store.take_bodies([1])
+    assert np.array_equal(ids, np.flatnonzero(ps.body == 1))
+    # local ids: the body's links stay inside it (a block's tets link only to its own)
+    assert part.links.max() < len(part) and np.array_equal(part.links >= 0, ps.links[ids] >= 0)
+    store.put_body(ids, part, G_part, np.zeros(0, np.int64))
+    _same(ps, store.host()[0])
+    # a body whose links lead out of it (half a block relabelled): they travel as -2 - id, read as
+    # 'no link' by the host code, and come back as they were
+    half = (ps.body == 0) & (ps.centroid[:, 0] < 0.0)
+    ps.body[half] = 2
+    store.reset(ps, G)
+    ids, part, G_part, rows = store.take_bodies([2])
+    out = part.links <= -2
+    assert out.any() and np.array_equal(-2 - part.links[out], ps.links[ids][out])
+    assert not half[-2 - part.links[out]].any()  # they lead to the other half
+    store.put_body(ids, part, G_part, rows)
+    _same(ps, store.host()[0])
+
+
+@pytest.mark.parametrize("mode", ["basic", "subdivision"])
+def test_a_cut_on_the_taken_body_equals_the_cut_on_the_whole_world(mode, monkeypatch):
+    """Cut body 1 with two cracks (subdivision appends children, shattering frees particles), once on
+    the whole-world arrays and once through take_bodies / put_body on a store too small for the
+    children (it grows on the way): the same particles, links, parents and extra links."""
+    import geometry.particle_store as store_module
+
+    ps, G = _two_blocks()
+    cracks = [Crack(point=[0.2, 0.0, 0.0], normal=[1.0, 0.2, 0.0], r_outer=0.1, r_inner=0.015),
+              Crack(point=[0.21, 0.0, 0.0], normal=[0.0, 1.0, 0.3], r_outer=0.05)]
+    whole, rep = apply_cracks(ps, cracks, mode=mode, shatter=True, bodies=[1])
+    monkeypatch.setattr(store_module, "HEADROOM", 1)
+    store = store_module.ParticleStore(ps, G)
+    ids, part, G_part, rows = store.take_bodies([1])
+    cut, rep_part = apply_cracks(part, cracks, mode=mode, shatter=True, bodies=[1])
+    n_new = len(cut) - len(part)
+    G_cut = np.concatenate([G_part, G_part[cut.parent[len(part):]]])
+    assert (n_new > 0) == (mode == "subdivision") and len(rep_part.debris) == len(rep.debris) > 0
+    store.put_body(ids, cut, G_cut, rows)
+    assert store.count == len(whole) and (mode == "basic" or store.capacity > len(ps))  # grown
+    host, G_host = store.host()
+    _same(whole, host, extra_as_sets=True)
+    assert np.array_equal(G_host[len(ps):], G[whole.parent[len(ps):]])  # children: their parent's tensor
+
+
+def test_device_checks_agree_with_numpy():
+    from geometry.particle_store import ParticleStore
+
+    ps, G = _two_blocks()
+    ps.alive[5] = False
+    store = ParticleStore(ps, G)
+    count, mass = store.body_totals(3)
+    alive = ps.alive
+    assert count.tolist() == np.bincount(ps.body[alive], minlength=3).tolist()
+    np.testing.assert_allclose(mass, np.bincount(ps.body[alive], weights=ps.mass[alive], minlength=3), rtol=1e-12)
+    assert set(store.first_invalid().values()) == {-1}
+    store.particle_volume[5] = -1.0  # a dead particle is not checked
+    store.particle_mass[9] = np.nan
+    store.particle_kernel[12, 1, 1] = -1.0
+    assert store.first_invalid() == dict(particle_centroid=-1, particle_rest_verts=-1, particle_volume=-1,
+                                         particle_mass=9, kernel_G=12)
+    np.testing.assert_array_equal(store.take_mass(np.array([3, 0, 400])), ps.mass[[3, 0, 400]])
