@@ -36,6 +36,7 @@ MIN_CAPACITY = 64  # rows: the smallest store
 HEADROOM = 4
 
 Arr = ti.types.ndarray()
+Ref = ti.template()  # an ndarray handed on to a ti.func
 
 
 # ----------------------------------------------------------------------------------------- kernels
@@ -63,6 +64,24 @@ def _k_copy_rows_i32(k: ti.i32, src: Arr, dst: Arr):
         dst[j] = src[j]
 
 
+@ti.func
+def _copy_fixed(d, d_verts: Ref, d_centroid: Ref, d_volume: Ref, d_mass: Ref, d_radius: Ref, d_kernel: Ref,
+                d_material: Ref, d_kind: Ref, s, s_verts: Ref, s_centroid: Ref, s_volume: Ref, s_mass: Ref,
+                s_radius: Ref, s_kernel: Ref, s_material: Ref, s_kind: Ref):
+    """Row s of one set of fixed columns into row d of another (the parent is remapped apart)."""
+    for a, b in ti.ndrange(4, 3):
+        d_verts[d, a, b] = s_verts[s, a, b]
+    for a, b in ti.static(ti.ndrange(3, 3)):
+        d_kernel[d, a, b] = s_kernel[s, a, b]
+    for a in ti.static(range(3)):
+        d_centroid[d, a] = s_centroid[s, a]
+    d_volume[d] = s_volume[s]
+    d_mass[d] = s_mass[s]
+    d_radius[d] = s_radius[s]
+    d_material[d] = s_material[s]
+    d_kind[d] = s_kind[s]
+
+
 @ti.kernel
 def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_centroid: Arr, particle_volume: Arr,
               particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr, particle_material: Arr,
@@ -78,17 +97,9 @@ def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_c
         particle_slot[ids[j]] = j + 1
     for j in range(ids.shape[0]):
         i = ids[j]
-        for a, b in ti.ndrange(4, 3):
-            verts[j, a, b] = particle_rest_verts[i, a, b]
-        for a, b in ti.static(ti.ndrange(3, 3)):
-            kernel[j, a, b] = particle_kernel[i, a, b]
-        for a in ti.static(range(3)):
-            centroid[j, a] = particle_centroid[i, a]
-        volume[j] = particle_volume[i]
-        mass[j] = particle_mass[i]
-        radius[j] = particle_radius[i]
-        material[j] = particle_material[i]
-        kind[j] = particle_kind[i]
+        _copy_fixed(j, verts, centroid, volume, mass, radius, kernel, material, kind, i, particle_rest_verts,
+                    particle_centroid, particle_volume, particle_mass, particle_radius, particle_kernel,
+                    particle_material, particle_kind)
         body[j] = particle_body[i]
         alive[j] = particle_alive[i]
         p = particle_parent[i]
@@ -138,17 +149,9 @@ def _k_put(ids: Arr, made: ti.i32, verts: Arr, centroid: Arr, volume: Arr, mass:
         for a in ti.static(range(4)):
             particle_links[i, a] = links[j, a]
         if made != 0:
-            for a, b in ti.ndrange(4, 3):
-                particle_rest_verts[i, a, b] = verts[j, a, b]
-            for a, b in ti.static(ti.ndrange(3, 3)):
-                particle_kernel[i, a, b] = kernel[j, a, b]
-            for a in ti.static(range(3)):
-                particle_centroid[i, a] = centroid[j, a]
-            particle_volume[i] = volume[j]
-            particle_mass[i] = mass[j]
-            particle_radius[i] = radius[j]
-            particle_material[i] = material[j]
-            particle_kind[i] = kind[j]
+            _copy_fixed(i, particle_rest_verts, particle_centroid, particle_volume, particle_mass, particle_radius,
+                        particle_kernel, particle_material, particle_kind, j, verts, centroid, volume, mass, radius,
+                        kernel, material, kind)
             particle_parent[i] = parent[j]
 
 
