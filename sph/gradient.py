@@ -15,6 +15,7 @@ from sph.kernel import GRAD_NORM
 CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
 DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
 QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
+PAD_SLOTS = 1 << 16  # (member, neighbour) slots padded at once: a block's arrays stay in cache
 
 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
@@ -64,17 +65,9 @@ def sph_gradient(
     used = np.zeros(m, dtype=np.int64)
     if owner.size == 0:
         return np.zeros((m, 3, 3)), used
-    # padded layout (member, slot): every sum over a member's neighbours is a batched matmul
     cnt = np.bincount(owner, minlength=m)
-    start = np.concatenate([[0], np.cumsum(cnt)[:-1]])
-    slot = np.arange(owner.size) - start[owner]
+    start = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)  # pairs of member e: start[e]..start[e+1]
     K = int(cnt.max())
-
-    def pad(vals: np.ndarray) -> np.ndarray:
-        out = np.zeros((m, K) + vals.shape[1:])
-        out[owner, slot] = vals
-        return out
-
     i = members[owner]
     xi = x[nbr] - x[i]
     Gm = G[members]
@@ -85,7 +78,34 @@ def sph_gradient(
     qs = np.where(inside, q, 1.0)
     k = np.where(inside, GRAD_NORM * np.linalg.det(Gm)[owner] * (1.0 - qs) ** 2 / qs, 0.0)
     g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
-    Vg = pad(volume[nbr][:, None] * g)  # (m, K, 3) plain SPH weights V_j grad W (Eq. 7, 10)
+    srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0] if order == 2 else None  # support radius: scales the basis
+    grad = np.empty((m, 3, 3))
+    # members in blocks of about PAD_SLOTS padded slots, every block padded to the same width K (so
+    # each member's sums are the same arithmetic as in one block): a neighbourhood that holds a whole
+    # fragment (1k members x 1k neighbours) pads to 10^6 slots, and blocks keep that in cache
+    step = max(1, PAD_SLOTS // K)
+    for a in range(0, m, step):
+        b = min(m, a + step)
+        pairs = slice(start[a], start[b])
+        grad[a:b], used[a:b] = _block_gradient(order, K, owner[pairs] - a, (np.arange(start[a], start[b])
+                                               - start[owner[pairs]]), xi[pairs], g[pairs], k[pairs],
+                                               volume[nbr[pairs]], u[nbr[pairs]] - u[i[pairs]], cnt[a:b],
+                                               None if srad is None else srad[a:b])
+    return grad, used
+
+
+def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, srad) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 7 for a block of members: pair arrays (owner within the block, slot in its row, offset
+    x_j - x_i, grad W, kernel factor, V_j, u_j - u_i) padded to (members, K); see `sph_gradient`."""
+    m = cnt.size
+    used = np.zeros(m, dtype=np.int64)
+
+    def pad(vals: np.ndarray) -> np.ndarray:
+        out = np.zeros((m, K) + vals.shape[1:])
+        out[owner, slot] = vals
+        return out
+
+    Vg = pad(vol[:, None] * g)  # (m, K, 3) plain SPH weights V_j grad W (Eq. 7, 10)
     d = Vg
     if order >= 1:
         Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi))  # sum_j V_j grad W (x) xi
@@ -98,8 +118,7 @@ def sph_gradient(
         used[ok] = 1
         d = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
     if order == 2:
-        srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: scales the basis
-        w = pad(volume[nbr] * k)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
+        w = pad(vol * k)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
         pb = pad(_quad_basis(xi / srad[owner, None]))  # (m, K, 9)
         ok2 = cnt >= 9
         if ok2.any():
@@ -109,6 +128,5 @@ def sph_gradient(
             d = d.copy()
             d[ok2] = c
             used[ok2] = 2
-    du = pad(u[nbr] - u[i])
-    grad = np.matmul(du.transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
+    grad = np.matmul(pad(du).transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
     return grad, used

@@ -135,3 +135,23 @@ def test_linear_field_is_exact_with_correction():
         ok = used == order
         assert ok.mean() > 0.9
         assert np.abs(g[ok] - A).max() < 1e-9 * np.abs(A).max()
+
+
+def test_blocks_of_members_give_the_same_bits(monkeypatch):
+    """sph_gradient pads members in blocks (PAD_SLOTS); any block size gives the same gradient, bit
+    for bit (every block is padded to the same width, so each member's sums are the same arithmetic)."""
+    import sph.gradient as gradient
+
+    obj = build_object("box", shape_params=dict(size=[0.06, 0.06, 0.03]), resolution=0.006)
+    x, V = obj.particles.centroid, obj.particles.volume
+    G = np.broadcast_to(kernel_isotropic(2.5 * 0.006), (len(x), 3, 3))
+    u = np.sin(40.0 * x) * 1e-6  # m: a smooth non-linear displacement
+    mem = np.arange(0, len(x), 2)
+    own, nbr = neighbour_pairs(x, G, mem, np.arange(len(x)))
+    out = []
+    for slots in (1, 1000, 1 << 30):  # one member per block, a few, all at once
+        monkeypatch.setattr(gradient, "PAD_SLOTS", slots)
+        out.append([sph_gradient(x, V, G, u, mem, own, nbr, order) for order in (0, 1, 2)])
+    for other in out[1:]:
+        for (g0, u0), (g1, u1) in zip(out[0], other):
+            assert np.array_equal(g0, g1) and np.array_equal(u0, u1)
