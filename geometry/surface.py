@@ -216,12 +216,11 @@ def on_surface(surface_tris: np.ndarray, tris: np.ndarray, tol: float) -> np.nda
     qc = tris.mean(1)
     qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
-    hits = cKDTree(sc).query_ball_point(qc, reach)
-    cnt = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-    if cnt.sum() == 0:
+    # candidate (query, surface triangle) pairs as arrays, no Python list per query
+    pairs = cKDTree(qc).sparse_distance_matrix(cKDTree(sc), reach, output_type="ndarray")
+    if len(pairs) == 0:
         return out
-    q = np.repeat(np.arange(len(tris)), cnt)
-    t = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if len(h)])
+    q, t = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
     a, b, c = surface_tris[t, 0], surface_tris[t, 1], surface_tris[t, 2]
     n = np.cross(b - a, c - a)
     area2 = np.linalg.norm(n, axis=1)
