@@ -30,7 +30,7 @@ MIN_BREAKABLE_PARTICLES = 32
 
 @dataclass
 class TakenBody:
-    """A body's particles taken from the store for one event (ParticleStore.take_body)."""
+    """A body's particles taken from the store for one event (ParticleStore.take_bodies)."""
 
     ids: np.ndarray  # (K,) store ids of the rows, ascending
     particles: ParticleSet  # K rows with local ids (links, parents)
@@ -106,12 +106,6 @@ def _other_body(world, other: int, point_world: np.ndarray) -> dict:
 def _body_material(world, body: int) -> int:
     """The body's main material (recorded when the body was made, so split bodies keep theirs)."""
     return world.body_material[body]
-
-
-def analysed_particles(world, body: int) -> np.ndarray:
-    """Store ids of the particles Algorithm 1 analyses on `body` (`analysed_rows`)."""
-    taken = take_body(world, body)
-    return taken.ids[analysed_rows(taken.particles, body)]
 
 
 def analysed_rows(ps: ParticleSet, body: int) -> np.ndarray:

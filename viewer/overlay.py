@@ -55,7 +55,7 @@ def coolwarm(t) -> np.ndarray:
 class AnalysisValues:
     """Per-particle values of one analysis (group values painted on the analysed particles), kept
     valid when fracture events add subdivided children (a child takes its parent's value: the analysis
-    runs on the physical particles, sim.fracture_stage.analysed_particles)."""
+    runs on the physical particles, sim.fracture_stage.analysed_rows)."""
 
     def __init__(self, n: int, ids: np.ndarray, energy: np.ndarray, stress_ratio: np.ndarray) -> None:
         self.energy = np.full(n, np.nan)
