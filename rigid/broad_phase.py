@@ -97,3 +97,9 @@ def k_grid(s: ti.template(), ns: ti.i32, margin: float):
         h = s.bp_hash[i]
         s.grid_entry[s.grid_start[h] + s.grid_fill[h]] = i
         s.grid_fill[h] += 1
+    # a body's spheres hold consecutive ids (RigidWorld appends a body's spheres together and keeps
+    # their order when it removes bodies): the narrow phase skips a sphere's own body by its range
+    for i in range(ns):
+        s.body_sphere_end[s.bp_body[i]] = 0
+    for i in range(ns):
+        ti.atomic_max(s.body_sphere_end[s.bp_body[i]], i + 1)

@@ -86,6 +86,7 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                     s.ct_b[base + cnt] = -1 - k
                 cnt += 1
     ci = s.bp_cell[i]
+    own_end = s.body_sphere_end[bi]
     cell = cell_size(s, margin)
     # farthest centre of a partner, padded against the rounding of the cell assignment
     reach = (ri + swi + margin + s.max_reach[None]) * (1.0 + 1e-5) + 1e-5 * cell
@@ -99,18 +100,19 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                 if gap_box.norm_sqr() > reach * reach:
                     continue
                 h = cell_hash(cn, hmask)
-                # a bucket lists its spheres in increasing id (k_grid's serial scatter): walk it from the
-                # top and stop at the first j <= i, half the visits of a full walk
+                # a bucket lists its spheres in increasing id (k_grid's serial scatter) and i's body holds
+                # the ids i+1..end-1 after it (k_grid): walk the bucket from the top and stop at the
+                # first j < end, past every partner j > i of another body and none of i's own
                 first, last = s.grid_start[h], s.grid_start[h + 1]
                 for t in range(last - first):
                     j = s.grid_entry[last - 1 - t]
-                    if j <= i:
+                    if j < own_end:
                         break
                     cj = s.bp_cell[j]
                     if cj[0] == cn[0] and cj[1] == cn[1] and cj[2] == cn[2]:
                         bj = s.bp_body[j]
                         aj = s.body_active[bj]
-                        if bj != bi and (ai == 1 or aj == 1):
+                        if ai == 1 or aj == 1:
                             gap = (xi - s.bp_x[j]).norm() - ri - s.bp_radius[j]
                             # speculative by RELATIVE motion: how far the pair can close this step; the
                             # absolute sweeps (swi + sweep_j) only bound it, and pieces of a body that

@@ -84,10 +84,11 @@ class RigidStore:
         self.body_level = ti.field(ti.i32)  # (NB,) -: contact-graph distance from static support (mass scaling)
         self.body_island = ti.field(ti.i32)  # (NB,) -: union-find parent for sleeping islands
         self.body_island_time = ti.field(float)  # (NB,) s: smallest sleep time of the island rooted here
+        self.body_sphere_end = ti.field(ti.i32)  # (NB,) -: one past the body's last sphere id (they are contiguous)
         dense(nb, self.body_alive, self.body_x, self.body_q, self.body_v, self.body_w, self.body_asleep,
               self.body_sleep_time, self.body_active, self.body_wake, self.body_inv_inertia_world, self.body_x0,
               self.body_r0, self.body_dx, self.body_dr, self.body_pv, self.body_pw, self.body_level,
-              self.body_island, self.body_island_time)
+              self.body_island, self.body_island_time, self.body_sphere_end)
 
     def _spheres(self, dense, ns: int) -> None:
         """Per boundary sphere (Sect. 5.3): body-frame centre and radius, then this step's sweep."""

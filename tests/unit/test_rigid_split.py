@@ -145,3 +145,28 @@ def test_boundary_grouping_kernel_equals_the_python_rule():
         assert next_got == next_want
         assert np.array_equal(got, want)
         assert (got >= 5).all() and np.bincount(got - 5).max() <= size
+
+
+def test_a_bodys_spheres_keep_consecutive_ids(taichi_runtime):
+    """The narrow phase skips a sphere's own body by its id range (rigid/narrow_phase.py), which holds
+    only while every body's spheres have consecutive ids: through splits, removals and a ball shot in."""
+    from scenes.loader import load_scene
+    from sim.world import World
+    from viewer.actions import shoot_ball
+
+    w = World(load_scene("glass_r3"))
+    try:
+        for _ in range(6):
+            w.step_frame()
+        shoot_ball(w, (0.0, 0.3, 0.3), (0.0, -1.0, -1.0), 5.0)
+        w.step_frame()
+        assert w.events
+        s = w.rigid._s
+        body = s.bp_body.to_numpy()[: w.rigid.n_spheres]
+        end = s.body_sphere_end.to_numpy()
+        for b in np.unique(body):
+            ids = np.flatnonzero(body == b)
+            assert ids[-1] - ids[0] + 1 == len(ids), f"body {b}: spheres {ids[0]}..{ids[-1]} not consecutive"
+            assert end[b] == ids[-1] + 1
+    finally:
+        w.release()
