@@ -257,7 +257,7 @@ _CHANGING = {
     "particle_alive": ((), ti.i32, bool),  # (C,) flag: 0 once replaced by its children or removed
     "particle_links": ((4,), ti.i32, np.int64),  # (C, 4) -: particle across tet face k, or -1
 }
-_HOST_NAME = {"particle_rest_verts": "rest_verts", "particle_kernel": None}  # else: name minus 'particle_'
+_HOST_NAME = {"particle_rest_verts": "rest_verts"}  # ParticleSet attribute; else the name minus 'particle_'
 
 
 class ParticleStore:
@@ -441,8 +441,7 @@ class ParticleStore:
         copy, downloaded when the store changed since the last call."""
         if self._host is None or self._host[0] != self.version:
             n = self.count
-            cols = {name: getattr(self, name).to_numpy()[:n].astype(host, copy=False)
-                    for name, (_, _, host) in {**_FIXED, **_CHANGING}.items()}
+            cols = {name: getattr(self, name).to_numpy()[:n] for name in (*_FIXED, *_CHANGING)}
             alive = self.link_extra_alive.to_numpy()[: self.extra_count] != 0
             pairs = self.link_extra.to_numpy()[: self.extra_count][alive].astype(np.int64)
             self.transfers.append(("host", n))
@@ -463,23 +462,21 @@ def _host_columns(ps: ParticleSet, kernel_G: np.ndarray) -> dict[str, np.ndarray
     """The store's columns of a ParticleSet, in the dtypes its kernels take."""
     cols = {}
     for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items():
-        attr = _HOST_NAME.get(name, name[len("particle_"):])
-        src = kernel_G if name == "particle_kernel" else getattr(ps, attr)
+        src = kernel_G if name == "particle_kernel" else getattr(ps, _host_name(name))
         cols[name] = np.ascontiguousarray(src, dtype=_kernel_dtype(host)).reshape(len(ps), *shape)
     return cols
 
 
 def _particle_set(cols: dict[str, np.ndarray], extra_pairs: np.ndarray) -> ParticleSet:
-    def col(name):
-        return cols[name].astype(_FIXED.get(name, _CHANGING.get(name))[2], copy=False)
+    """A ParticleSet of store columns (in the ParticleSet's own dtypes)."""
+    host = {_host_name(name): cols[name].astype(dtype, copy=False)
+            for name, (_, _, dtype) in {**_FIXED, **_CHANGING}.items() if name != "particle_kernel"}
+    return ParticleSet(**host, extra_links=np.asarray(extra_pairs, dtype=np.int64).reshape(-1, 2))
 
-    return ParticleSet(
-        rest_verts=col("particle_rest_verts"), volume=col("particle_volume"), mass=col("particle_mass"),
-        centroid=col("particle_centroid"), radius=col("particle_radius"), material=col("particle_material"),
-        body=col("particle_body"), links=col("particle_links"), kind=col("particle_kind"),
-        parent=col("particle_parent"), alive=col("particle_alive"),
-        extra_links=np.asarray(extra_pairs, dtype=np.int64).reshape(-1, 2),
-    )
+
+def _host_name(name: str) -> str:
+    """The ParticleSet attribute of a store column."""
+    return _HOST_NAME.get(name, name[len("particle_"):])
 
 
 def _to_global(local: np.ndarray, global_id: np.ndarray) -> np.ndarray:
