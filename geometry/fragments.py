@@ -21,6 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from core.errors import ConfigError
 from geometry.cutting import Bodies, Crack, body_mask, remove_crossed_links, shatter_particles
 from geometry.particles import ParticleSet
+from geometry.pulverise import pulverise
 from geometry.subdivision import SNAP_REL, SubdivisionReport, subdivide
 
 MODES = ("basic", "subdivision")
@@ -113,6 +114,8 @@ def apply_cracks(
             ps, ids = shatter_particles(ps, crack, bodies=bodies)
             parts.append(ids)
         debris = np.unique(np.concatenate(parts)) if parts else debris
+        if mode == "subdivision":  # a perforation plug is crushed into grains below the particle size
+            ps, debris = pulverise(ps, debris, cracks)
         rep.debris = debris
         debris_body = ps.body[debris].copy()
         ps = replace(ps, body=ps.body.copy())

@@ -422,7 +422,7 @@ def _link_old_pieces(ps, ch_faces, tag, ch_parent, matched, old, new_ids, links)
     return new_extra
 
 
-def _with_children(ps: ParticleSet, parents, ch_parent, ch_verts, ch_vol, links, extra) -> ParticleSet:
+def with_children(ps: ParticleSet, parents, ch_parent, ch_verts, ch_vol, links, extra) -> ParticleSet:
     """The particle set with the children appended (Sect. 5.2: the parent's density, material, body
     and kernel) and the parents dead."""
     nc = len(ch_verts)
@@ -493,4 +493,4 @@ def subdivide(
     extra = np.concatenate([keep_ex, new_extra]) if len(new_extra) else keep_ex.copy()
     if len(extra):
         extra = np.unique(np.sort(extra, axis=1), axis=0)
-    return _with_children(ps, parents, ch_parent, ch_verts, ch_vol, links, extra), rep
+    return with_children(ps, parents, ch_parent, ch_verts, ch_vol, links, extra), rep

@@ -14,6 +14,7 @@ particle subdivision, crack generation (link removal, labelling, splitting, new 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -76,31 +77,90 @@ def _world_motion(world, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.n
     return st.x[body] + r, st.v[body] + np.cross(st.w[body], r)
 
 
-def _local_radius(world, body: int, point_world: np.ndarray) -> float:
-    """Radius (m) of the body's boundary sphere nearest the contact: the curvature the collision saw.
-    A body split earlier in the same frame has no spheres left: it counts as flat (inf)."""
+def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray, fit: bool = True) -> float:
+    """Radius of curvature (m) of the body's surface at the contact (Hertz's R1 or R2): the fit of
+    `sph.contact.surface_radius` to the centres of the body's boundary spheres within a patch of
+    two sphere radii beyond the nearest (`inward`: world normal into this body), plus their radius;
+    a flat or sparsely sampled patch counts as flat (inf). `fit=False`: the nearest sphere's radius
+    (where two flat patches meet, the contact is borne by the edge or corner the collision sphere
+    stands for). A body split earlier in the same frame has no spheres left: it counts as flat."""
+    from sph.contact import surface_radius
+
     spheres = world.rigid.body_spheres(body)
     if len(spheres) == 0:
         return float("inf")
     centres = world.rigid.sphere_world(spheres=spheres)
-    _, radius, _ = world.rigid.sphere_data()
+    radius = world.rigid.sphere_data()[1][spheres]
+    dist = np.linalg.norm(centres - point_world, axis=1)
+    k = int(np.argmin(dist))
+    if not fit:
+        return float(radius[k])
+    patch = dist <= dist[k] + 2.0 * radius[k]
+    return surface_radius(centres[patch], centres[k], inward, offset=float(radius[k]))
+
+
+def _contact_mass(world, body: int, point_world: np.ndarray, normal_world: np.ndarray) -> float:
+    """kg: the body's mass as seen along `normal_world` at a contact point (Stronge, Impact Mechanics,
+    2000, ch. 5): 1 / (1/m + (r x n) . I^-1 (r x n)), r from the COM, I the world inertia; the
+    rigid solver's impulse at that point moves this mass. A blow off the COM line also spins the
+    body, so less of its kinetic energy goes into the contact."""
+    from rigid.quat import quat_to_matrix
+
+    m = world.rigid.body_mass(body)
+    st = world.rigid.body_state()
+    rot = quat_to_matrix(st.q[body])
+    rn = np.cross(np.asarray(point_world, dtype=np.float64) - st.x[body], normal_world)
+    inertia_w = rot @ world.rigid.body_inertia(body) @ rot.T
+    return 1.0 / (1.0 / m + float(rn @ np.linalg.solve(inertia_w, rn)))
+
+
+def _striker_contact_mass(world, other: int, point_world: np.ndarray) -> float:
+    """kg: `_contact_mass` of the body that struck, at its own surface nearest the struck point
+    (its boundary sphere nearest the point, along that sphere's normal towards it): at first contact
+    both surfaces share that normal. Its pose at the analysis is the one after the contact's
+    substep; for a ball this gives its whole mass wherever the contact lies on it."""
+    spheres = world.rigid.body_spheres(other)
+    if len(spheres) == 0:
+        return world.rigid.body_mass(other)
+    centres = world.rigid.sphere_world(spheres=spheres)
     k = int(np.argmin(np.linalg.norm(centres - point_world, axis=1)))
-    return float(radius[spheres[k]])
+    towards = point_world - centres[k]
+    dist = float(np.linalg.norm(towards))
+    if dist == 0.0:
+        return world.rigid.body_mass(other)
+    n = towards / dist
+    radius = float(world.rigid.sphere_data()[1][spheres[k]])
+    return _contact_mass(world, other, centres[k] + radius * n, -n)
 
 
-def _other_body(world, other: int, point_world: np.ndarray) -> dict:
-    """Mass, radius and elastic constants of what struck the body (a body, or a static collider)."""
+def _contact_bodies(world, body: int, other: int, point: np.ndarray, normal: np.ndarray, R1: float) -> dict:
+    """Masses, radii and elastic constants of the two bodies at a contact for Hertz (ImpactSpec's m1,
+    R1, m2, R2, E2, nu2), at the struck surface's point and inward normal (`point`, `normal`: the
+    struck body's reference frame; `R1`: its radius of curvature there, `surface_radius_at`). The
+    other body is a body or, for other < 0, the scene's collider (flat)."""
+    from rigid.quat import quat_to_matrix
+    from sim.perforation import cross_section
     from sph.contact import effective_isotropic
 
+    st = world.rigid.body_state()
+    point_w = _world_motion(world, body, np.asarray(point)[None])[0][0]
+    normal_w = quat_to_matrix(st.q[body]) @ np.asarray(normal)  # into the struck body
+    out = dict(m1=_contact_mass(world, body, point_w, normal_w), R1=R1)
     if other < 0 or world.rigid.body_is_static(other):
         if other < 0:
             col = world.cfg.colliders[0] if world.cfg.colliders else None
             young, poisson = (col.young, col.poisson) if col else (3.0e10, 0.2)
         else:
             young, poisson = effective_isotropic(world.materials[_body_material(world, other)].stiffness)
-        return dict(m2=np.inf, R2=np.inf, E2=young, nu2=poisson)
-    young, poisson = effective_isotropic(world.materials[_body_material(world, other)].stiffness)
-    return dict(m2=world.rigid.body_mass(other), R2=_local_radius(world, other, point_world), E2=young, nu2=poisson)
+        out.update(m2=np.inf, R2=np.inf, E2=young, nu2=poisson)
+    else:
+        young, poisson = effective_isotropic(world.materials[_body_material(world, other)].stiffness)
+        out.update(m2=_striker_contact_mass(world, other, point_w), E2=young, nu2=poisson,
+                   R2=_local_radius(world, other, point_w, -normal_w),
+                   striker_radius=cross_section(world, other, normal_w, st))
+    if math.isinf(out["R1"]) and math.isinf(out["R2"]):  # flat on flat: an edge or corner bears the blow
+        out["R1"] = _local_radius(world, body, point_w, normal_w, fit=False)
+    return out
 
 
 def _body_material(world, body: int) -> int:
@@ -123,25 +183,15 @@ def analysed_rows(ps: ParticleSet, body: int) -> np.ndarray:
     return ids
 
 
-def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float,
-                  striker: np.ndarray | None = None):
-    """The struck surface at a contact (reference frame): (point on it, inward unit normal).
-
-    The rigid solver's contact normal and point are impulse-weighted means over a few collision
-    spheres: the normal can lean far off the surface (18 degrees on a pane struck square-on) and the
-    point lies off the striker's axis and outside the tets, and Algorithm 1 builds its frame on them.
-    The surface's own normal is the area-weighted mean of the outward normals of the body's free tet
-    faces (no link) that face the striker (outward normal against the given normal: a thin wall's
-    far face is as near) and whose centroid lies within `radius` of the nearest such face. The point is
-    the foot on that plane of the striker's centre (`striker`, a moving body; the first contact of a
-    convex striker) or, for a collider, of the reported point. Falls back to the given point and
-    normal where the body has no free face or its faces point away from the given normal.
-    """
+def _facing_faces(ps, body: int, point: np.ndarray, normal: np.ndarray):
+    """The body's free tet faces (no link) whose outward normal is against `normal` (the side a
+    striker meets; a thin wall's far face is as near): (triangles (F,3,3) m relative to `point`,
+    area-weighted outward normals (F,3), centroids (F,3)), or None where there is none."""
     from geometry.tetmesh import TET_FACES
 
     mine = np.flatnonzero(ps.alive & (ps.body == body) & (ps.links < 0).any(1))
     if mine.size == 0:
-        return point, normal
+        return None
     tet, face = np.nonzero(ps.links[mine] < 0)
     v = ps.rest_verts[mine[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
     tri = np.take_along_axis(v, TET_FACES[face][:, :, None], axis=1)  # (F,3,3)
@@ -150,11 +200,32 @@ def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: 
     opposite = v[np.arange(len(face)), face]
     flip = np.einsum("fi,fi->f", an, opposite - cen) > 0.0  # outward: away from the opposite vertex
     an[flip] *= -1.0
-    facing = an @ normal < 0.0  # the side the striker meets (a thin wall's far face is as near)
+    facing = an @ normal < 0.0
     if not facing.any():
+        return None
+    return tri[facing], an[facing], cen[facing]
+
+
+def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float,
+                  striker: np.ndarray | None = None):
+    """The struck surface at a contact (reference frame): (point on it, inward unit normal).
+
+    The rigid solver's contact normal and point are impulse-weighted means over a few collision
+    spheres: the normal can lean far off the surface (18 degrees on a pane struck square-on) and the
+    point lies off the striker's axis and outside the tets, and Algorithm 1 builds its frame on them.
+    The surface's own normal is the area-weighted mean of the outward normals of the body's free tet
+    faces that face the striker (`_facing_faces`) and whose centroid lies within `radius` of the
+    nearest such face. The point is the foot on that plane of the striker's centre (`striker`, a
+    moving body; the first contact of a convex striker) or, for a collider, of the reported point.
+    Falls back to the given point and normal where the body has no free face or its faces point away
+    from the given normal.
+    """
+    faces = _facing_faces(ps, body, point, normal)
+    if faces is None:
         return point, normal
-    dist = np.where(facing, np.linalg.norm(cen, axis=1), np.inf)
-    near = facing & (np.linalg.norm(cen - cen[int(np.argmin(dist))], axis=1) < radius)
+    _, an, cen = faces
+    dist = np.linalg.norm(cen, axis=1)
+    near = np.linalg.norm(cen - cen[int(np.argmin(dist))], axis=1) < radius
     an, cen = an[near], cen[near]
     total = an.sum(0)
     w = np.linalg.norm(an, axis=1)
@@ -167,6 +238,20 @@ def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: 
     if np.linalg.norm(foot - plane) > radius + float(np.linalg.norm(plane)):
         foot = -float(np.dot(-plane, inward)) * inward  # striker centre far off the patch: the point's foot
     return point + foot, inward
+
+
+def surface_radius_at(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float) -> float:
+    """Radius of curvature (m) of the struck surface at `point` (on it; `normal` inward), for Hertz's
+    R1: `sph.contact.surface_radius` fitted to the corners of the facing free faces within `radius`
+    of the point; inf for a flat patch."""
+    from sph.contact import surface_radius
+
+    faces = _facing_faces(ps, body, point, normal)
+    if faces is None:
+        return math.inf
+    tri, _, cen = faces
+    corners = tri[np.linalg.norm(cen, axis=1) < radius].reshape(-1, 3)
+    return surface_radius(np.unique(corners, axis=0) + point, point, normal)
 
 
 def held_particles(obj, bounds, x: np.ndarray) -> np.ndarray:
@@ -207,16 +292,14 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     point = ref["point"]
     nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
     # the struck surface's own point and normal, not the collision spheres' (surface_frame)
-    point, normal = surface_frame(ps, body, point, ref["normal"], tet_edge(float(ps.volume[nearest])),
-                                  striker=ref["striker"])
+    edge = tet_edge(float(ps.volume[nearest]))
+    point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"])
     nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
     material = world.materials[int(ps.material[nearest])]
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
-    spec = ImpactSpec(
-        point=point, normal=normal, speed=impact["speed"], m1=world.rigid.body_mass(body),
-        R1=_local_radius(world, body, point_w), **_other_body(world, impact["other"], point_w),
-        held=bool(world.rigid.body_is_static(body)),
-    )
+    spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
+                      **_contact_bodies(world, body, impact["other"], point, normal,
+                                        surface_radius_at(ps, body, point, normal, 2.0 * edge)))
     result = analyse_impact(ps.centroid[ids], ps.volume[ids], G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
     if len(np.unique(ps.material[ids])) > 1:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def _cross_section(world, striker: int, normal: np.ndarray, state) -> float:
+def cross_section(world, striker: int, normal: np.ndarray, state) -> float:
     """m: the striker's half-width perpendicular to `normal`: the largest distance from its COM line
     to a boundary sphere's far side."""
     spheres = world.rigid.body_spheres(striker)
@@ -70,7 +70,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
         return None
     n = np.asarray(impact["normal"], dtype=np.float64)  # into the struck body
     n = n / np.linalg.norm(n)
-    half = _cross_section(world, other, n, st)
+    half = cross_section(world, other, n, st)
     v_pre = np.asarray(impact["striker_v"], dtype=np.float64)  # before the substep of the contact
     if half > r_in or float(v_pre @ n) <= 0.0:
         return None

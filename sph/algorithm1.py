@@ -12,6 +12,8 @@ vectorised over the analysed neighbourhood (tens to a few hundred particles).
     group_state        13-14       per group: weighted means of grad u, strain, stress, tension; energy
     rankine_test       15-16       which groups fire (point criterion) and their crack normals
     crack_radii        17 (Eq. 11) r_outer from the group energy and the contact area
+    onset_energy       17          the energy held when the peak tension reaches the strength
+    plug_energy        17          what a striker that perforates a wall leaves in it (Recht & Ipson)
     shatter_radius     17          r_inner where the released energy exceeds U_limit
     crack_regions      output      the half-disc crack of each fired group
 """
@@ -336,23 +338,54 @@ def crack_radii(U_g: np.ndarray, fired: np.ndarray, K: float, area: float, e_nea
     return r_out, U_av
 
 
-def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float) -> tuple[float, float]:
-    """U_limit (module doc step 8): the released energy U spread as u(r) = 315/(64 pi h^9)(h^2 -
-    r^2)^3 U (h = rho_P) frees a particle where u exceeds u_limit = G_c A_P / (2 V_P) (half its
-    surface: each freed face is one side of a crack shared with a neighbour). Returns (r_inner m,
-    u_limit J/m^3); r_inner = 0 when the energy does not reach u_limit anywhere."""
+def onset_energy(U_av: float, peak_tension: float, sigma_t: float) -> float:
+    """J: the elastic energy the analysed neighbourhood holds when its peak tension reaches the
+    strength (module doc of sph/cracks.py, step 8): the field is linear in F, so its energy scales as
+    F^2: U_onset = U' min(1, (sigma_t / T_peak)^2). A brittle solid cannot store the quasi-static
+    energy beyond that; once its cracks run, the rest of the blow stays in the bodies' motion."""
+    if not peak_tension > 0.0:
+        return U_av
+    return U_av * min(1.0, (sigma_t / peak_tension) ** 2)
+
+
+def plug_energy(m_striker: float, density: float, striker_radius: float, thickness: float, speed: float) -> float:
+    """J: the kinetic energy lost when a striker punches a plug of its cross-section out of a wall
+    (Recht & Ipson 1963, J. Appl. Mech. 30: 384, the plugging collision): the plug, of mass
+    m_p = rho pi R_s^2 B, is taken up to the striker's speed in a perfectly inelastic collision,
+    Delta K = 1/2 m_s m_p / (m_s + m_p) v^2 (m_s = inf: 1/2 m_p v^2). That energy goes into the
+    wall around the plug, crushed and thrown out."""
+    m_p = density * math.pi * striker_radius**2 * thickness
+    m_red = m_p if math.isinf(m_striker) else m_striker * m_p / (m_striker + m_p)
+    return 0.5 * m_red * speed**2
+
+
+def material_weight(dist2: np.ndarray, volume: np.ndarray, rho: float) -> float:
+    """-: the integral of the normalised poly6 kernel of support rho over the material inside it,
+    sum_j V_j 315/(64 pi rho^9) (rho^2 - d_j^2)^3 (1 for a support filled with material; a thin wall
+    fills a fraction of it); at least the kernel of the nearest particle alone."""
+    w = np.clip(rho * rho - dist2, 0.0, None) ** 3 * (315.0 / (64.0 * math.pi * rho**9))
+    return float(min(1.0, max((volume * w).sum(), 1e-12)))
+
+
+def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float,
+                   weight: float = 1.0) -> tuple[float, float]:
+    """U_limit (module doc step 8): the released energy U spread in the material as u(r) =
+    315/(64 pi h^9)(h^2 - r^2)^3 U / weight (h = rho_P; `weight`: `material_weight`, the share of the
+    kernel's integral that lies in the material) frees a particle where u exceeds u_limit =
+    G_c A_P / (2 V_P) (half its surface: each freed face is one side of a crack shared with a
+    neighbour). Returns (r_inner m, u_limit J/m^3); r_inner = 0 when u does not reach u_limit."""
     A_near = math.sqrt(3.0) * e_near**2  # m^2: surface of the regular tet
     u_lim = 0.5 * Gc * A_near / V_near
     r_in = 0.0
     if U_rel > 0.0:
-        X = (64.0 * math.pi * rho**9 * u_lim / (315.0 * U_rel)) ** (1.0 / 3.0)
+        X = (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0)
         if X < rho * rho:
             r_in = math.sqrt(rho * rho - X)
     return r_in, u_lim
 
 
 def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
-                  r_out: np.ndarray, r_in: float, N: int) -> tuple[list[Crack], np.ndarray]:
+                  r_out: np.ndarray, r_in: float, N: int, r_plug: float = 0.0) -> tuple[list[Crack], np.ndarray]:
     """Step 6: a half-disc through P per fired group, with its crack normal, on the side of its
     bisector projected onto the crack plane (the inward normal if the bisector is within ~6 degrees
     of the crack normal); N = 1 gives a full disc. Returns (cracks, sides (N,3))."""
@@ -369,6 +402,6 @@ def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, f
                     break
         if side is not None:
             sides[k] = side
-        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in,
+        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, r_plug=r_plug,
                             source=f"impact.group{k}"))
     return cracks, sides

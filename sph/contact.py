@@ -389,3 +389,33 @@ __all__ = [
     "hertz_max_tension",
     "isotropic_stress",
 ]
+
+
+def surface_radius(points: np.ndarray, point: np.ndarray, inward: np.ndarray, offset: float = 0.0,
+                   flat_ratio: float = 20.0) -> float:
+    """Radius of curvature (m) of a body's surface at a contact, for Hertz's R (Johnson Sect. 4.2).
+
+    `points` (K,3) m sample a surface near `point` (the contact), `inward` is the unit normal into
+    the body there. The fit z = kappa/2 |p|^2 + b x + c y + d (p relative to the point, z along
+    `inward`) is exact for a sphere through the point whose centre lies on the normal (kappa = 1/R)
+    and gives kappa = 0 for a plane; for a doubly curved surface kappa is the mean curvature, the
+    radius Johnson's equivalent sphere uses. `offset` is added to the fitted radius (centres of
+    spheres of radius `offset` lie on a surface `offset` inside the body's). Returns inf for a flat,
+    concave or too sparsely sampled patch (fewer than 4 points, or a radius above `flat_ratio` times
+    the patch size: a plane for Hertz)."""
+    p = np.asarray(points, dtype=np.float64) - np.asarray(point, dtype=np.float64)
+    if len(p) < 4:
+        return math.inf
+    n = np.asarray(inward, dtype=np.float64) / float(np.linalg.norm(inward))
+    t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(n, t1)
+    x, y, z = p @ t1, p @ t2, p @ n
+    A = np.stack([0.5 * np.einsum("ij,ij->i", p, p), x, y, np.ones_like(x)], axis=1)
+    if np.linalg.matrix_rank(A[:, 1:]) < 3:
+        return math.inf  # points on one line: no patch
+    kappa = float(np.linalg.lstsq(A, z, rcond=None)[0][0])
+    size = float(np.sqrt(x * x + y * y).max())
+    if kappa <= 0.0 or 1.0 / kappa > flat_ratio * size:
+        return math.inf
+    return 1.0 / kappa + offset

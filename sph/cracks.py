@@ -83,13 +83,27 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
     the kinetic energy the impact brings (the Hertz force assumes a rigid backing; a compliant body
     takes less). Particle geometry is that of a regular tet of the particle's volume V:
     edge e = (6 sqrt2 V)^(1/3), face area sqrt3/4 e^2.
- 8. U_limit, r_inner (Sect. 4.2, read with the poly6 kernel's cube): the released energy
-    U = sum_g U'_g is spread as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U, h = rho_P.
-    A particle shatters where u exceeds the energy density needed to free it completely, i.e. to
-    create crack area equal to half its surface (each face it frees is one side of a crack it shares
-    with a neighbour): u_limit = G_c A_P / (2 V_P) (regular tet: A = sqrt3 e^2).
-    r_inner^2 = h^2 - (64 pi h^9 u_limit / (315 U))^(1/3) when positive, else r_inner = 0. Cracks
-    carry r_inner only if at least one group fired.
+ 8. U_limit, r_inner (Sect. 4.2, read with the poly6 kernel's cube). The energy that shatters:
+    - the elastic energy the neighbourhood holds when its peak tension reaches the strength,
+      U_onset = sum_g U'_g min(1, (sigma_t / T_peak)^2) (the field is linear in F, its energy
+      quadratic): a brittle solid cannot store the quasi-static energy beyond that; once its
+      cracks run, the rest of the blow stays in the bodies' motion (and breaks them again when they
+      land: secondary fracture);
+    - plus, where a striker punches a plug out of a wall (the plate field fired; a moving striker
+      whose radius of curvature at the contact, at most its half-width, is below half the plate's
+      radius and not above the wall's own R1), the plugging loss of Recht & Ipson (1963):
+      1/2 m_s m_p / (m_s + m_p) v^2, m_p = rho pi R_s^2 B. The plug radius r_plug = R_s is shattered
+      whatever the energy (the striker goes through it) and, in subdivision mode, crushed one level
+      finer than the particles (geometry/pulverise.py).
+    U is spread in the material as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U / w,
+    h = rho_P, w = sum_j V_j 315/(64 pi h^9) (h^2 - d_j^2)^3 the share of the kernel's integral
+    that lies in the body (a thin wall fills a small part of the sphere). A particle shatters where
+    u exceeds the energy density needed to free it completely, i.e. to create crack area equal to
+    half its surface (each face it frees is one side of a crack it shares with a neighbour):
+    u_limit = G_c A_P / (2 V_P) (regular tet: A = sqrt3 e^2).
+    r_inner^2 = h^2 - (64 pi h^9 u_limit w / (315 U))^(1/3) when positive, else 0; at least r_plug.
+    Cracks carry r_inner only if at least one group fired. Why the onset energy and not the energy
+    at the peak force: docs/notes_cracks.md section 4.
 
 Validity: that of the contact models (sph/contact.py): linear elastic, small strain, quasi-static
 impact; a normal impact (friction and the tangential speed are ignored); the contact point P lies
@@ -132,6 +146,7 @@ class ImpactSpec:
     R2: float = math.inf  # m: radius of the other body (inf: a plane)
     E2: float = math.inf  # Pa: Young's modulus of the other body (inf: rigid)
     nu2: float = 0.25  # -: its Poisson ratio
+    striker_radius: float | None = None  # m: the other body's half-width across n (None: R2; inf: none)
     reference: np.ndarray | None = None  # (3,) -: in-plane reference direction e1 (None: from the kernel)
     held: bool = False  # the struck body is held by the scene (static): a beam is supported at its ends
 
@@ -194,6 +209,8 @@ class ImpactAnalysis:
     r_outer: np.ndarray  # (N,) m: crack radius (0 where not fired)
     side: np.ndarray  # (N,3): half-disc side (zeros for a full disc or no crack)
     r_inner: float  # m: shatter radius (U_limit); attached to the cracks only when one fired
+    shatter_energy: float  # J: the energy spread by U_limit (onset energy plus a plug's, step 8)
+    r_plug: float  # m: radius of the plug a perforating striker punches out (0: none)
     u_limit: float  # J/m^3: shatter threshold energy density
     kinetic_energy: float  # J: 1/2 m* v^2
     tensile_strength: float  # Pa
@@ -245,6 +262,8 @@ class ImpactAnalysis:
                 for c in self.cracks
             ],
             "r_inner": float(self.r_inner),
+            "r_plug": float(self.r_plug),
+            "shatter_energy": float(self.shatter_energy),
             "u_limit": float(self.u_limit),
             "kinetic_energy": float(self.kinetic_energy),
             "tensile_strength": float(self.tensile_strength),
@@ -284,6 +303,23 @@ def _checked_inputs(x, volume, G, crack_count, thickness, correction, field_kind
     if correction not in CORRECTIONS:  # True == 1, False == 0
         raise ConfigError("analyse_impact.correction", correction, "0/False (plain), 1/True (Bonet-Lok), 2 (quadratic)")
     return x, volume, G, (None if auto else N), B
+
+
+def _plug_radius(impact: ImpactSpec, wf, fired: np.ndarray) -> float:
+    """m: the radius of the plug a striker punches out of the struck wall (step 8), 0 for none. A plug
+    needs a wall that bends (the plate field) and cracked, a moving striker, and wall around it to
+    punch it out of. Its radius is what of the striker meets the wall: its radius of curvature R2
+    there (a ball's radius; a fragment's edge or corner is sharp), at most its half-width across the
+    normal (ImpactSpec.striker_radius), and it must stay below half the plate's radius L. The wall
+    must be at least as flat there as the striker (R1 >= R_s): a wall that meets the striker with an
+    edge or a corner has that edge crushed, not a plug punched out. A collider, or a striker as
+    wide as the wall, strikes the whole wall."""
+    R_s = impact.R2 if impact.striker_radius is None else min(impact.R2, float(impact.striker_radius))
+    if wf.kind != "plate" or not fired.any() or math.isinf(impact.m2) or not math.isfinite(R_s):
+        return 0.0
+    if impact.R1 < R_s:
+        return 0.0
+    return R_s if 0.0 < R_s < 0.5 * wf.plate_radius else 0.0
 
 
 def analyse_impact(
@@ -338,8 +374,14 @@ def analyse_impact(
     K = 0.5 * hz.m_eff * impact.speed**2
     L_body = float(np.sqrt(nb.dist2.max()))
     r_out, U_av = alg.crack_radii(gs["energy"], fired, K, hz.area, nb.e_near, Gc, B, nb.rho, L_body)
-    r_in, u_lim = alg.shatter_radius(float(U_av.sum()), nb.rho, Gc, nb.e_near, nb.V_near)
-    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N)
+    U_sh = alg.onset_energy(float(U_av.sum()), float(peak.max(initial=0.0)) * F, sigma_t)
+    r_plug = _plug_radius(impact, wf, fired)
+    if r_plug > 0.0:
+        U_sh += alg.plug_energy(impact.m2, material.density, r_plug, wf.plate_thickness, impact.speed)
+    weight = alg.material_weight(nb.dist2, volume, nb.rho)
+    r_in, u_lim = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
+    r_in = max(r_in, r_plug)
+    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_plug)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
     return ImpactAnalysis(
         cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,
@@ -349,6 +391,7 @@ def analyse_impact(
         grad_u=gs["grad_u"], strain=gs["strain"], stress=gs["stress"], tension=gs["tension_per_newton"] * F,
         principal_stress=pvals, principal_dir=pdirs, tension_per_newton=peak, energy=gs["energy"],
         energy_available=U_av, fired=fired, r_outer=r_out, side=sides, r_inner=r_in, u_limit=u_lim,
+        shatter_energy=U_sh, r_plug=r_plug,
         kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim,
     )
 

@@ -1,0 +1,136 @@
+"""What shatters at an impact and how finely (sph/cracks.py step 8, geometry/pulverise.py), against
+known answers:
+
+- Hertz's radius comes from the surfaces' own curvature (`surface_radius`): a sphere's radius exactly,
+  a plane is flat (inf), a cylinder lies between its radius and twice it (the mean curvature), a
+  concave patch counts as flat;
+- the mass a blow moves is the body's mass at the contact point (Stronge): a slender box struck
+  sideways at its end moves a quarter of its mass;
+- the energy held at fracture onset scales as (sigma_t / T_peak)^2; the plugging loss is the energy
+  a perfectly inelastic collision of striker and plug loses (momentum conserved);
+- the poly6 kernel's share inside a thin slab is its integral over the slab (scipy quadrature);
+- a pulverised plug conserves mass and volume, each tet giving four quarter tets inside it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from geometry.build import build_object
+from geometry.cutting import Crack
+from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED
+from geometry.pulverise import centroid_split, pulverise
+from geometry.tetmesh import signed_volumes
+from sph.algorithm1 import material_weight, onset_energy, plug_energy
+from sph.contact import surface_radius
+
+RNG = np.random.default_rng(7)
+
+
+def cap(radius: float, half_width: float, k: int = 300, concave: bool = False) -> np.ndarray:
+    """Points of a sphere of `radius` touching the origin, centre on +z (inward +z), within
+    `half_width` of the z axis; `concave`: the centre on -z."""
+    d = RNG.normal(size=(k, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    c = np.array([0.0, 0.0, -radius if concave else radius])
+    p = c + radius * d
+    p = p[(np.hypot(p[:, 0], p[:, 1]) < half_width) & ((p[:, 2] > c[2]) if concave else (p[:, 2] < c[2]))]
+    return p
+
+
+def test_surface_radius_of_a_sphere_a_plane_a_cylinder_and_a_hollow():
+    n = np.array([0.0, 0.0, 1.0])
+    for R in (0.005, 0.03, 0.2):
+        assert surface_radius(cap(R, 0.6 * R), np.zeros(3), n) == pytest.approx(R, rel=1e-9)
+        # sphere centres of radius r inside a ball of radius R + r: the ball's radius
+        assert surface_radius(cap(R, 0.6 * R), np.zeros(3), n, offset=0.004) == pytest.approx(R + 0.004, rel=1e-9)
+    plane = np.c_[RNG.uniform(-0.02, 0.02, (60, 2)), np.zeros(60)]
+    assert math.isinf(surface_radius(plane, np.zeros(3), n))
+    rho = 0.08
+    th, s = RNG.uniform(-0.25, 0.25, 200), RNG.uniform(-0.02, 0.02, 200)
+    cyl = np.c_[s, rho * np.sin(th), rho * (1.0 - np.cos(th))]
+    assert rho < surface_radius(cyl, np.zeros(3), n) < 2.0 * rho
+    assert math.isinf(surface_radius(cap(0.03, 0.02, concave=True), np.zeros(3), n))
+    assert math.isinf(surface_radius(cap(0.03, 0.02)[:3], np.zeros(3), n))  # too few points
+
+
+def test_contact_mass_of_a_slender_box_struck_at_its_end(taichi_runtime):
+    """A free box L x w x w struck sideways at the end of its long axis: 1/m_c = 1/m + (L/2)^2 / I,
+    I = m (L^2 + w^2) / 12 (a quarter of the mass as w -> 0); struck at its centre, all of it."""
+    from scenes.loader import scene_from_dict
+    from sim.fracture_stage import _contact_mass
+    from sim.world import World
+
+    L, w = 0.3, 0.02
+    raw = {
+        "scene": {"name": "rod", "effects": ["rigid"], "gravity": [0.0, 0.0, 0.0]},
+        "materials": [{"name": "glass", "density": 2500.0, "stiffness": {"model": "isotropic", "E": 7e10, "nu": 0.22},
+                       "tensile_strength": 4e7, "toughness": 8.0}],
+        "objects": [{"name": "rod", "shape": {"type": "box", "size": [L, w, w]}, "material": "glass",
+                     "resolution": 0.01, "position": [0.0, 0.5, 0.0]}],
+    }
+    world = World(scene_from_dict(raw, "rod"))
+    m = world.rigid.body_mass(0)
+    com = world.rigid.body_state().x[0]
+    I = m * (L * L + w * w) / 12.0
+    down = np.array([0.0, -1.0, 0.0])
+    end = _contact_mass(world, 0, com + [L / 2, w / 2, 0.0], down)
+    assert end == pytest.approx(1.0 / (1.0 / m + (L / 2) ** 2 / I), rel=1e-6)
+    assert _contact_mass(world, 0, com + [0.0, w / 2, 0.0], down) == pytest.approx(m, rel=1e-9)
+
+
+def test_onset_energy_and_the_plugging_loss():
+    assert onset_energy(2.0, 3.0 * 4e7, 4e7) == pytest.approx(2.0 / 9.0, rel=1e-15)
+    assert onset_energy(2.0, 0.5 * 4e7, 4e7) == 2.0  # below the strength: all of it
+    # Recht & Ipson: striker and plug leave together; the loss is what momentum conservation leaves over
+    m_s, rho, R, B, v = 0.88, 2500.0, 0.03, 0.008, 8.0
+    m_p = rho * math.pi * R * R * B
+    v_after = m_s * v / (m_s + m_p)
+    loss = 0.5 * m_s * v * v - 0.5 * (m_s + m_p) * v_after**2
+    assert plug_energy(m_s, rho, R, B, v) == pytest.approx(loss, rel=1e-12)
+    assert plug_energy(math.inf, rho, R, B, v) == pytest.approx(0.5 * m_p * v * v, rel=1e-15)
+
+
+def test_the_kernel_share_inside_a_thin_slab(taichi_runtime):
+    """sum_j V_j W(d_j) over a pane's particles equals the integral of the normalised poly6 kernel over
+    the slab |z| < B/2 (the support's centre on the mid-plane), to the discretisation error."""
+    B, h = 0.008, 0.04
+    ps = build_object("pane", shape_params=dict(size=[0.2, 0.2, B]), resolution=0.006).particles
+    d2 = (ps.centroid**2).sum(1)
+    c = 315.0 / (64.0 * math.pi * h**9)
+    exact = quad(lambda z: c * math.pi * (h * h - z * z) ** 4 / 4.0, -B / 2, B / 2)[0]  # int over the disc of radius
+    assert exact == pytest.approx(315.0 * B / (256.0 * h), rel=0.02)  # thin-slab limit
+    assert material_weight(d2, ps.volume, h) == pytest.approx(exact, rel=0.05)
+    block = build_object("box", shape_params=dict(size=[0.2, 0.2, 0.2]), resolution=0.01).particles
+    assert material_weight((block.centroid**2).sum(1), block.volume, h) == pytest.approx(1.0, rel=0.02)
+
+
+def test_a_pulverised_plug_keeps_mass_and_volume(taichi_runtime):
+    ps = build_object("pane", shape_params=dict(size=[0.1, 0.1, 0.008]), resolution=0.01).particles
+    P = np.array([0.0, 0.0, 0.004])
+    inner = np.flatnonzero(np.linalg.norm(ps.centroid - P, axis=1) < 0.03)
+    crack = Crack(point=P, normal=[1.0, 0.0, 0.0], r_outer=0.05, r_inner=0.03, r_plug=0.015)
+    out, debris = pulverise(ps, inner, [crack])
+    plug = inner[np.linalg.norm(ps.centroid[inner] - P, axis=1) < 0.015]
+    assert plug.size > 0 and len(debris) == len(inner) + 3 * plug.size
+    assert not out.alive[plug].any() and out.alive[debris].all()
+    kids = debris[out.kind[debris] == KIND_SUBDIVIDED]
+    assert len(kids) == 4 * plug.size and np.all(out.kind[np.setdiff1d(debris, kids)] == KIND_PHYSICAL)
+    np.testing.assert_allclose(out.volume[kids], np.repeat(ps.volume[plug] / 4.0, 4), rtol=1e-12)
+    np.testing.assert_allclose(signed_volumes(out.rest_verts[kids]), out.volume[kids], rtol=1e-9)
+    assert out.mass[out.alive].sum() == pytest.approx(ps.mass.sum(), rel=1e-12)
+    assert np.all(out.links[kids] == -1) and np.all(out.parent[kids] == np.repeat(plug, 4))
+    # every child's corners lie in its parent tet (barycentric coordinates in [0, 1])
+    par = ps.rest_verts[out.parent[kids]]
+    T = np.transpose(par[:, 1:] - par[:, :1], (0, 2, 1))  # (K,3,3): edge vectors as columns
+    rel = np.transpose(out.rest_verts[kids] - par[:, :1], (0, 2, 1))  # (K,3,4): corners as columns
+    lam = np.linalg.solve(T, rel)
+    assert lam.min() > -1e-9 and lam.sum(1).max() < 1.0 + 1e-9
+    assert centroid_split(ps.rest_verts[:2]).shape == (8, 4, 3)
+    # no plug, no change
+    same, deb = pulverise(ps, inner, [Crack(point=P, normal=[1.0, 0.0, 0.0], r_outer=0.05, r_inner=0.03)])
+    assert same is ps and np.array_equal(deb, inner)
