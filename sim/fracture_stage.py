@@ -80,7 +80,7 @@ def _world_motion(world, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.n
 def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray, fit: bool = True) -> float:
     """Radius of curvature (m) of the body's surface at the contact (Hertz's R1 or R2): the fit of
     `sph.contact.surface_radius` to the centres of the body's boundary spheres within a patch of
-    two sphere radii beyond the nearest (`inward`: world normal into this body), plus their radius;
+    three sphere radii beyond the nearest (`inward`: world normal into this body), plus their radius;
     a flat or sparsely sampled patch counts as flat (inf). `fit=False`: the nearest sphere's radius
     (where two flat patches meet, the contact is borne by the edge or corner the collision sphere
     stands for). A body split earlier in the same frame has no spheres left: it counts as flat."""
@@ -95,7 +95,7 @@ def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray,
     k = int(np.argmin(dist))
     if not fit:
         return float(radius[k])
-    patch = dist <= dist[k] + 2.0 * radius[k]
+    patch = dist <= dist[k] + 3.0 * radius[k]
     return surface_radius(centres[patch], centres[k], inward, offset=float(radius[k]))
 
 

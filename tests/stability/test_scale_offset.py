@@ -127,19 +127,26 @@ print(json.dumps(out))
 def test_translated_scene_in_single_precision(files):
     """f32 (the default of `main.py run`): positions are resolved to ulp(|x|), so the contact point and
     the cut move with the offset. At 10 m: masses within 1e-4 relative, centres within 0.5 mm; at 1e3 m
-    the body count holds (the shattered grains within 2%) but masses differ by up to 3e-2 and centres by
-    up to 2 cm (measured: 1.7e-2; the crack point is the foot of the striker's centre, which f32 keeps to
-    6e-5 m there) - docs/robustness.md: keep f32 scenes near the origin, or run with --precision f64."""
+    the body count holds to one piece (the shattered grains within 2%) but masses differ by up to 3e-2
+    and centres by up to 2 cm (measured: 1.7e-2; the crack point is the foot of the striker's centre,
+    which f32 keeps to 6e-5 m there, and the ball's radius of curvature fitted for Hertz moves by 1.5%,
+    and the shatter and plug radii with it: a particle wedged between two cracks at the rim of the
+    shattered zone can come free as a piece of its own) - docs/robustness.md: keep f32 scenes near the
+    origin, or run with --precision f64."""
     r = subprocess.run([sys.executable, "-c", F32_PROBE.format(root=str(ROOT), mesh=files["m"])], cwd=ROOT,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     res = json.loads(r.stdout.strip().splitlines()[-1])
     ref = res["0.0"]
-    for d, mass_tol, x_tol in (("10.0", 1e-4, 5e-4), ("1000.0", 3e-2, 2e-2)):
+    for d, mass_tol, x_tol, pieces in (("10.0", 1e-4, 5e-4, 0), ("1000.0", 3e-2, 2e-2, 1)):
         far = res[d]
-        assert far["count"] == ref["count"]
+        assert abs(far["count"] - ref["count"]) <= pieces
         # a grain at the edge of the shattered zone may fall either side of r_inner at ulp(|x|)
         assert abs(far["debris"] - ref["debris"]) <= max(3, 0.02 * ref["debris"])
+        # each reference piece against the far piece nearest to it (an extra wedge has no partner)
+        x, x0 = np.array(far["x"]), np.array(ref["x"])
         m, m0 = np.array(far["mass"]), np.array(ref["mass"])
-        assert np.abs(m - m0).max() <= mass_tol * m0.max()
-        assert np.abs(np.array(far["x"]) - np.array(ref["x"])).max() <= x_tol
+        match = np.argmin(np.linalg.norm(x0[:, None] - x[None], axis=2), axis=1)
+        assert len(np.unique(match)) == len(x0)
+        assert np.abs(m[match] - m0).max() <= mass_tol * m0.max()
+        assert np.abs(x[match] - x0).max() <= x_tol
