@@ -367,6 +367,13 @@ def material_weight(dist2: np.ndarray, volume: np.ndarray, rho: float) -> float:
     return float(min(1.0, max((volume * w).sum(), 1e-12)))
 
 
+def u_limit(Gc: float, edge: float, volume: float) -> float:
+    """J/m^3: the energy density that frees a particle (a regular tet of `edge`, `volume`): G_c times
+    half its surface (sqrt3 e^2) per volume; each face it frees is one side of a crack shared with a
+    neighbour."""
+    return 0.5 * Gc * math.sqrt(3.0) * edge**2 / volume
+
+
 def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float,
                    weight: float = 1.0) -> tuple[float, float]:
     """U_limit (module doc step 8): the released energy U spread in the material as u(r) =
@@ -374,8 +381,7 @@ def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: f
     kernel's integral that lies in the material) frees a particle where u exceeds u_limit =
     G_c A_P / (2 V_P) (half its surface: each freed face is one side of a crack shared with a
     neighbour). Returns (r_inner m, u_limit J/m^3); r_inner = 0 when u does not reach u_limit."""
-    A_near = math.sqrt(3.0) * e_near**2  # m^2: surface of the regular tet
-    u_lim = 0.5 * Gc * A_near / V_near
+    u_lim = u_limit(Gc, e_near, V_near)
     r_in = 0.0
     if U_rel > 0.0:
         X = (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0)

@@ -78,7 +78,8 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
     crack of length r in a body of thickness B is G_c B r, and the contact area S weights it relative
     to S_ref, the face area of the nearest particle's tet (the paper's Fig. 9 "weight"):
         r_outer,g = (S / S_ref) U'_g / (G_c B),  clamped to [rho_P, L_body],
-    rho_P = the analysed kernel's support radius, L_body = the largest distance from P to a particle.
+    rho_P = the analysed kernel's support radius, L_body = the largest distance from P to a particle's
+    centroid plus its tet edge (the body's reach: a crack clamped to it severs the far end too).
     U'_g = U_g min(1, K / sum_g U_g), K = 1/2 m* v^2: the quasi-static field cannot store more than
     the kinetic energy the impact brings (the Hertz force assumes a rigid backing; a compliant body
     takes less). Particle geometry is that of a regular tet of the particle's volume V:
@@ -322,6 +323,25 @@ def _plug_radius(impact: ImpactSpec, wf, fired: np.ndarray) -> float:
     return R_s if 0.0 < R_s < 0.5 * wf.plate_radius else 0.0
 
 
+def _with_plug(U_onset: float, K: float, impact: ImpactSpec, wf, nb, fired: np.ndarray,
+               material: Material) -> tuple[float, float]:
+    """(shatter energy J, plug radius m) (step 8): the onset energy, plus the plugging loss where a
+    plug forms (`_plug_radius`) and the blow is above the ballistic limit: K pays the onset energy,
+    the plug's cylindrical crack (G_c 2 pi R B) and the plugging loss, and the plugging collision
+    pays for crushing the plug into quarter tets (edge e / 4^(1/3)); else the striker is stopped or
+    bounces and no plug forms."""
+    r_plug = _plug_radius(impact, wf, fired)
+    if r_plug == 0.0:
+        return U_onset, 0.0
+    Gc, B = float(material.toughness), wf.plate_thickness
+    plug = alg.plug_energy(impact.m2, material.density, r_plug, B, impact.speed)
+    rim = Gc * 2.0 * math.pi * r_plug * B
+    crush = alg.u_limit(Gc, nb.e_near / 4.0 ** (1.0 / 3.0), nb.V_near / 4.0) * math.pi * r_plug**2 * B
+    if K >= U_onset + rim + plug and plug >= crush:
+        return U_onset + plug, r_plug
+    return U_onset, 0.0
+
+
 def analyse_impact(
     x: np.ndarray,
     volume: np.ndarray,
@@ -372,12 +392,12 @@ def analyse_impact(
     tim["stress_ms"] = (clock() - t2) * 1e3
     # 6-8. line 17: r_outer (Eq. 11), r_inner (U_limit), the crack regions
     K = 0.5 * hz.m_eff * impact.speed**2
-    L_body = float(np.sqrt(nb.dist2.max()))
+    # the body's reach from P: its farthest particle's centroid plus that particle's tet edge, so a
+    # crack clamped to it cuts the links and tets at the body's far end too (not only up to centroids)
+    L_body = float((np.sqrt(nb.dist2) + np.cbrt(6.0 * math.sqrt(2.0) * volume)).max())
     r_out, U_av = alg.crack_radii(gs["energy"], fired, K, hz.area, nb.e_near, Gc, B, nb.rho, L_body)
     U_sh = alg.onset_energy(float(U_av.sum()), float(peak.max(initial=0.0)) * F, sigma_t)
-    r_plug = _plug_radius(impact, wf, fired)
-    if r_plug > 0.0:
-        U_sh += alg.plug_energy(impact.m2, material.density, r_plug, wf.plate_thickness, impact.speed)
+    U_sh, r_plug = _with_plug(U_sh, K, impact, wf, nb, fired, material)
     weight = alg.material_weight(nb.dist2, volume, nb.rho)
     r_in, u_lim = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
     r_in = max(r_in, r_plug)

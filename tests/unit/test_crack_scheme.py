@@ -377,3 +377,29 @@ def test_bad_impact_specs_raise_config_errors():
         args[key] = bad
         with pytest.raises(ConfigError):
             ImpactSpec(**args)
+
+
+def test_cracks_reaching_the_whole_pot_cut_it_into_n_pieces_in_both_modes():
+    """A porcelain pot (the pot scene's lathe, 1 cm tets) struck on its wall: the three cracks are
+    clamped to the body's reach (the farthest centroid plus its tet edge), so each severs the far end
+    of the pot too, and link removal and adaptive subdivision cut the same three pieces (before, the
+    clamp stopped at the farthest centroid and subdivided children kept a link across the crack's rim)."""
+    obj = build_object("lathe", shape_params=dict(profile=[[0.05, 0.0], [0.09, 0.08], [0.06, 0.2]], thickness=0.008),
+                       resolution=0.01)
+    ps = obj.particles
+    x = ps.centroid
+    i = np.argmax(np.where(np.abs(x[:, 1] - 0.1) < 0.01, x[:, 0], -1.0))
+    spec = ImpactSpec(point=[x[i, 0] + 0.004, x[i, 1], 0.0], normal=[-1.0, 0.0, 0.0], speed=5.0,
+                      m1=float(ps.mass.sum()), R1=0.08)
+    porcelain = Material("porcelain", 2400.0, stiffness_isotropic(7e10, 0.2), tensile_strength=4e7, toughness=14.0)
+    an = analyse_impact(ps.centroid, ps.volume, kernel_isotropic(0.02), porcelain, spec, 3, obj.thickness)
+    assert an.field == "plate" and an.fired.all()
+    reach = float((np.linalg.norm(x - spec.point, axis=1) + np.cbrt(6.0 * math.sqrt(2.0) * ps.volume)).max())
+    assert all(c.r_outer == pytest.approx(reach, rel=1e-12) for c in an.cracks)
+    big = []
+    for mode in ("basic", "subdivision"):
+        out, rep = apply_cracks(ps, an.cracks, mode=mode, shatter=True)
+        vol = np.sort(fragment_volumes(out, rep.labels))[::-1]
+        assert vol[:3].sum() > 0.99 * vol.sum() and vol[2] > 0.2 * vol.sum()  # three pieces, each > 20%
+        big.append(vol[:3] / vol.sum())
+    np.testing.assert_allclose(big[0], big[1], atol=0.01)

@@ -134,3 +134,39 @@ def test_a_pulverised_plug_keeps_mass_and_volume(taichi_runtime):
     # no plug, no change
     same, deb = pulverise(ps, inner, [Crack(point=P, normal=[1.0, 0.0, 0.0], r_outer=0.05, r_inner=0.03)])
     assert same is ps and np.array_equal(deb, inner)
+
+
+def test_a_plug_forms_only_above_the_ballistic_limit(taichi_runtime):
+    """A 1 cm steel ball on a 0.3 m plaster pane (gypsum: E 8 GPa, tensile strength 2 MPa,
+    K_Ic 0.2 MPa m^0.5 -> G_c 5 J/m^2, rho 1100 kg/m^3; Ashby & Jones, Engineering Materials 2): the
+    plug forms exactly where the blow's energy K pays the energy held at onset, the plug's cylindrical
+    crack (G_c 2 pi R B) and the plugging loss, and the plugging loss pays for crushing the plug into
+    quarter tets. Between the speed that breaks the pane and that limit the pane cracks, no plug."""
+    from sph.algorithm1 import u_limit
+    from sph.cracks import ImpactSpec, analyse_impact, tet_edge
+    from sph.kernel import kernel_isotropic
+    from sph.materials import Material, stiffness_isotropic
+
+    B, R, Gc, rho = 0.008, 0.01, 5.0, 1100.0
+    ps = build_object("pane", shape_params=dict(size=[0.3, 0.3, B]), resolution=0.01).particles
+    plaster = Material("plaster", rho, stiffness_isotropic(8e9, 0.2), tensile_strength=2e6, toughness=Gc)
+    ball = dict(m2=7850.0 * 4.0 / 3.0 * math.pi * R**3, R2=R, E2=2.1e11, nu2=0.30)
+    seen = set()
+    for v in np.geomspace(0.5, 6.0, 14):
+        spec = ImpactSpec(point=[0.001, 0.002, 0.5 * B], normal=[0.0, 0.0, -1.0], speed=float(v),
+                          m1=float(ps.mass.sum()), R1=math.inf, **ball)
+        an = analyse_impact(ps.centroid, ps.volume, kernel_isotropic(0.02), plaster, spec, 4, B)
+        if not an.fired.any():
+            assert an.r_plug == 0.0
+            continue
+        T = float(an.tension_per_newton.max()) * an.hertz.force
+        onset = float(an.energy_available.sum()) * min(1.0, (2e6 / T) ** 2)
+        m_p = rho * math.pi * R * R * B
+        plug = 0.5 * ball["m2"] * m_p / (ball["m2"] + m_p) * v * v
+        V = float(ps.volume[an.nearest])
+        crush = u_limit(Gc, tet_edge(V / 4.0), V / 4.0) * math.pi * R * R * B
+        expect = bool(an.kinetic_energy >= onset + Gc * 2.0 * math.pi * R * B + plug and plug >= crush)
+        assert (an.r_plug > 0.0) == expect, (v, an.r_plug, an.kinetic_energy, onset, plug, crush)
+        assert an.r_inner >= an.r_plug
+        seen.add(expect)
+    assert seen == {False, True}
