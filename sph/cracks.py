@@ -163,6 +163,8 @@ class ImpactSpec:
         if not (math.isfinite(v) and v > 0.0):
             raise ConfigError("impact.speed", self.speed, "> 0 m/s and finite")
         self.point, self.normal, self.speed = p, n / nn, v
+        if self.striker_radius is not None and not float(self.striker_radius) > 0.0:  # NaN fails too
+            raise ConfigError("impact.striker_radius", self.striker_radius, "> 0 m (inf: no plug), or None for R2")
         if self.reference is not None:
             r = np.asarray(self.reference, dtype=np.float64).reshape(-1)
             if r.shape != (3,) or not np.all(np.isfinite(r)):

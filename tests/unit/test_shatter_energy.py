@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
+from core.errors import ConfigError
 from geometry.build import build_object
 from geometry.cutting import Crack
 from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED
@@ -170,3 +171,5 @@ def test_a_plug_forms_only_above_the_ballistic_limit(taichi_runtime):
         assert an.r_inner >= an.r_plug
         seen.add(expect)
     assert seen == {False, True}
+    with pytest.raises(ConfigError, match="impact.striker_radius"):
+        ImpactSpec(point=[0.0, 0.0, 0.0], normal=[0.0, 0.0, -1.0], speed=1.0, m1=1.0, R1=0.1, striker_radius=-0.01)
