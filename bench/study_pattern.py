@@ -175,8 +175,10 @@ def render(res: dict, out: Path) -> str:
 **Known answers.** A plate struck at its centre breaks in a cobweb: N radial cracks around the point
 (largest angular gap under 2 x 360/N). The crack normals from the SPH gradient (Eq. 7) follow the
 principal directions of the analytic field Algorithm 1 uses. A rod struck sideways breaks by bending
-at the threshold beam theory gives. Pieces rise with speed and N and fall with strength and
-toughness. With `cracks = "auto"` the radial-crack count grows as V^(1/2) (Vandenberghe et al. 2013).
+at the threshold beam theory gives. Pieces rise with speed and fall with toughness; they fall with
+strength where the pane holds (tests/unit/test_crack_pattern.py: 5x the strength). Between strengths,
+or crack counts N, at which the pane breaks they barely move: most pieces are the grains of the plug
+the ball punches out (docs/notes_cracks.md section 4), which depend on neither. With `cracks = "auto"` the radial-crack count grows as V^(1/2) (Vandenberghe et al. 2013).
 **Set-up**: `bench/study_pattern.py` (shared with tests/unit/test_crack_pattern.py): a glass pane
 0.3 x 0.3 x 0.008 m at 1 cm, a glass rod r = 1 cm, L = 0.3 m at 7 mm, a 1 cm steel ball; pane
 threshold {res['pane_threshold']:.2f} m/s; the cobweb is struck at 3x that.
