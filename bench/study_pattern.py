@@ -178,7 +178,8 @@ principal directions of the analytic field Algorithm 1 uses. A rod struck sidewa
 at the threshold beam theory gives. Pieces rise with speed and fall with toughness; they fall with
 strength where the pane holds (tests/unit/test_crack_pattern.py: 5x the strength). Between strengths,
 or crack counts N, at which the pane breaks they barely move: most pieces are the grains of the plug
-the ball punches out (docs/notes_cracks.md section 4), which depend on neither. With `cracks = "auto"` the radial-crack count grows as V^(1/2) (Vandenberghe et al. 2013).
+the ball punches out (docs/notes_cracks.md section 4), which depend on neither. With
+`cracks = "auto"` the radial-crack count grows as V^(1/2) (Vandenberghe et al. 2013).
 **Set-up**: `bench/study_pattern.py` (shared with tests/unit/test_crack_pattern.py): a glass pane
 0.3 x 0.3 x 0.008 m at 1 cm, a glass rod r = 1 cm, L = 0.3 m at 7 mm, a 1 cm steel ball; pane
 threshold {res['pane_threshold']:.2f} m/s; the cobweb is struck at 3x that.

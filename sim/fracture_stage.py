@@ -338,9 +338,11 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
     return out
 
 
-def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | None = None) -> dict:
+def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | None = None, push=None) -> dict:
     """Apply cracks to one body: cut, shatter, split into fragment bodies, on the body's particles
-    taken from the store (`taken`, or taken here), written back at the end. Returns the event record."""
+    taken from the store (`taken`, or taken here), written back at the end. `push`: x_ref (K,3) ->
+    (K,3) m/s, the velocity the blow gives freed particles on top of the body's (`impact_push`).
+    Returns the event record."""
     from geometry.fragments import apply_cracks
     from rigid.bodies import split_body
 
@@ -368,7 +370,8 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
     debris = np.concatenate([debris, ids[single]])
     ids = ids[~single]
     if len(debris):
-        _free_particles(world, body, ps, debris, store_id[debris])
+        _free_particles(world, body, ps, debris, store_id[debris],
+                        None if push is None else push(ps.centroid[debris]))
     labels = np.unique(rep.labels[ids], return_inverse=True)[1] if len(ids) else rep.labels[ids]
     new_ids = []
     if len(ids):
@@ -411,13 +414,19 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
     return record
 
 
-def _free_particles(world, body: int, ps, idx: np.ndarray, store_idx: np.ndarray) -> None:
+def _free_particles(world, body: int, ps, idx: np.ndarray, store_idx: np.ndarray,
+                    push_ref: np.ndarray | None = None) -> None:
     """Particles `idx` (rows of `ps`; `store_idx` in the store) of `body` leave it as debris: free
-    spheres keeping the body's velocity field (v + w x r) with the `debris` effect; without it they
-    leave the simulation, their mass booked."""
+    spheres keeping the body's velocity field (v + w x r), plus `push_ref` ((K,3) m/s, reference
+    frame) where given, with the `debris` effect; without it they leave the simulation, their mass
+    booked."""
+    from rigid.quat import quat_to_matrix
+
     world.debris_pieces += len(idx)
     if world.cfg.has("debris"):
         x_w, v_w = _world_motion(world, body, ps.centroid[idx])
+        if push_ref is not None:
+            v_w = v_w + push_ref @ quat_to_matrix(world.rigid.body_state().q[body]).T
         world.debris.add(x_w, v_w, ps.radius[idx], store_idx)
     else:
         world.debris_mass += float(ps.mass[idx].sum())
@@ -434,6 +443,27 @@ def _held_labels(obj, obj_bounds, x: np.ndarray, labels: np.ndarray) -> np.ndarr
     return held
 
 
+def impact_push(world, body: int, result):
+    """For a held body (a framed pane), the velocity its freed particles take from the blow: the
+    striker's approach speed times the contact field's normal displacement there relative to the
+    contact point (`sph.contact.push_profile` of the field Algorithm 1 analysed), along the inward
+    normal: the zone under the striker moves with it, the rim of the shattered zone less. The frame
+    takes the momentum. A free body's particles keep its velocity field (the rigid contact already
+    gave it the blow); None then, or for the beam field. Returns x_ref (K,3) -> (K,3) m/s."""
+    from sph.contact import push_profile
+
+    if not world.rigid.body_is_static(body) or result.field not in ("plate", "halfspace") or not result.cracks:
+        return None
+    P, frame, speed = result.cracks[0].point, result.frame, result.hertz.speed
+
+    def push(x_ref: np.ndarray) -> np.ndarray:
+        ratio = push_profile(result.field, (x_ref - P) @ frame.T, result.E1, result.nu1, result.regularisation,
+                             result.plate_thickness, result.plate_radius)
+        return (speed * ratio)[:, None] * frame[2]
+
+    return push
+
+
 def fracture_body(world, body: int, impact: dict) -> dict | None:
     """Analyse an impact on `body` and, when it cracks, cut and split it. Returns the event record."""
     t0 = time.perf_counter()
@@ -448,6 +478,6 @@ def fracture_body(world, body: int, impact: dict) -> dict | None:
         return None
     record = dict(frame=world.frame, body=body, speed=round(float(impact["speed"]), 6),
                   analysis=result.to_dict(), stress_analysis_ms=round((t1 - t0) * 1e3, 3))
-    record = cut_body(world, body, result.cracks, record, taken)
+    record = cut_body(world, body, result.cracks, record, taken, impact_push(world, body, result))
     record["whole_event_ms"] = round((time.perf_counter() - t0) * 1e3, 3)  # analysis to split, as a user waits
     return record

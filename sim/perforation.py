@@ -79,7 +79,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     E = fracture_energy(world, body, info.thickness, record)
     v_free = v_pre * np.sqrt(max(0.0, 1.0 - E / (0.5 * m * float(v_pre @ v_pre))))
     # a free body's parts as before the contact: the parent's velocity field at that substep (a held
-    # body's parts were released at rest)
+    # body's debris were released with the blow's push, sim.fracture_stage.impact_push)
     v0, w0 = np.asarray(impact["struck_v"], dtype=np.float64), np.asarray(impact["struck_w"], dtype=np.float64)
 
     def field(x):
@@ -89,6 +89,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     swept = np.linalg.norm(rel - np.outer(rel @ n, n), axis=1) <= half
     vd = parts["debris_v"].copy() if info.static else field(parts["debris_x"])
     m_sw = parts["debris_m"][swept]
+    p_swept = (m_sw[:, None] * vd[swept]).sum(0)  # kg m/s: the swept debris' momentum before the sweep
     v_out = (m * v_free + (m_sw[:, None] * vd[swept]).sum(0)) / (m + m_sw.sum())  # an inelastic sweep
     # what the striker lost to the fracture pushes the rest of a free body on (momentum conserved)
     rest = float(parts["body_m"].sum() + parts["debris_m"][~swept].sum())
@@ -108,7 +109,8 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     world.rigid.set_body_state(other, x=st.x[other] + (v_out - st.v[other]) * t_left, v=v_out,
                                w=np.asarray(impact["striker_w"], dtype=np.float64))
     return dict(striker=other, speed_before=float(np.linalg.norm(v_pre)), speed_after=float(np.linalg.norm(v_out)),
-                fracture_energy=E, swept_debris=int(swept.sum()),
+                velocity_before=[float(c) for c in v_pre],
+                fracture_energy=E, swept_debris=int(swept.sum()), swept_momentum=[float(c) for c in p_swept],
                 # kg m/s: what this step changed in the bodies' and the debris' momentum (their sum is
                 # zero for a free struck body; for a held one it is the support's impulse)
                 bodies_momentum=[float(c) for c in dp_bodies], debris_momentum=[float(c) for c in dp_debris])

@@ -419,3 +419,23 @@ def surface_radius(points: np.ndarray, point: np.ndarray, inward: np.ndarray, of
     if kappa <= 0.0 or 1.0 / kappa > flat_ratio * size:
         return math.inf
     return 1.0 / kappa + offset
+
+
+def push_profile(kind: str, r_vec: np.ndarray, E: float, nu: float, a: float, thickness: float = 0.0,
+                 outer_radius: float = 0.0) -> np.ndarray:
+    """(N,) -: the contact's normal displacement at offsets r_vec (N,3) from the contact point (+z
+    inward) relative to its value at the point, in [0, 1]: how much of the striker's push the
+    material there follows (the shape of the field Algorithm 1 analysed: 'plate' (Kirchhoff, with
+    `thickness` and `outer_radius`) or 'halfspace' (Boussinesq), regularised by `a`). Linear in F,
+    so F = 1 N; the ratio does not depend on it."""
+    r = np.asarray(r_vec, dtype=np.float64).reshape(-1, 3)
+    if kind == "plate":
+        def u(p):
+            return plate_displacement(p, 1.0, E, nu, thickness, outer_radius, a)[:, 2]
+    elif kind == "halfspace":
+        def u(p):
+            return boussinesq_displacement(p, 1.0, E, nu, a)[:, 2]
+    else:
+        raise ConfigError("push_profile.kind", kind, "'plate' or 'halfspace'")
+    at_point = u(np.zeros((1, 3)))[0]
+    return np.clip(u(r) / at_point, 0.0, 1.0)

@@ -173,3 +173,32 @@ def test_a_plug_forms_only_above_the_ballistic_limit(taichi_runtime):
     assert seen == {False, True}
     with pytest.raises(ConfigError, match="impact.striker_radius"):
         ImpactSpec(point=[0.0, 0.0, 0.0], normal=[0.0, 0.0, -1.0], speed=1.0, m1=1.0, R1=0.1, striker_radius=-0.01)
+
+
+def test_push_profile_is_the_fields_own_deflection_shape():
+    """The share of the striker's push that the material follows, on the struck face (zeta = -B/2 from
+    the mid-plane): the Kirchhoff plate's u_z = w + nu/(2(1 - nu)) zeta^2 lap w with
+    w(s) = (3 + nu)/(1 + nu) (L^2 - s) + s ln(s / L^2), s = r^2 + l^2 (Timoshenko, load spread over l),
+    relative to its value at the point; on a half-space's surface the Boussinesq
+    u_z ~ l^2/R^3 + 2 (1 - nu)/R, R = (r^2 + l^2)^(1/2), relative to (3 - 2 nu)/l."""
+    from sph.contact import push_profile
+
+    nu, l, B, L = 0.22, 0.004, 0.008, 0.2
+    r = np.linspace(0.0, L, 41)
+    face = np.c_[r, np.zeros_like(r), np.zeros_like(r)]
+
+    def u_face(r):
+        s = r * r + l * l
+        w = (3.0 + nu) / (1.0 + nu) * (L * L - s) + s * np.log(s / (L * L))
+        w_s = -(3.0 + nu) / (1.0 + nu) + np.log(s / (L * L)) + 1.0
+        lap = 4.0 * w_s + 4.0 * r * r / s
+        return w + nu / (2.0 * (1.0 - nu)) * (0.5 * B) ** 2 * lap
+
+    got = push_profile("plate", face, 7e10, nu, l, B, L)
+    np.testing.assert_allclose(got, np.clip(u_face(r) / u_face(0.0), 0.0, 1.0), rtol=1e-9, atol=1e-12)
+    assert got[0] == pytest.approx(1.0, rel=1e-12) and np.all(np.diff(got) <= 0.0) and got[-1] < 0.01
+    R = np.sqrt(r * r + l * l)
+    np.testing.assert_allclose(push_profile("halfspace", face, 7e10, nu, l),
+                               (l * l / R**3 + 2.0 * (1.0 - nu) / R) / ((3.0 - 2.0 * nu) / l), rtol=1e-9)
+    with pytest.raises(ConfigError, match="push_profile.kind"):
+        push_profile("beam", face, 7e10, nu, l)
