@@ -92,8 +92,10 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
       land: secondary fracture);
     - plus, where a striker punches a plug out of a wall (the plate field fired; a moving striker
       whose radius of curvature at the contact, at most its half-width, is below half the plate's
-      radius and not above the wall's own R1), the plugging loss of Recht & Ipson (1963):
-      1/2 m_s m_p / (m_s + m_p) v^2, m_p = rho pi R_s^2 B. The plug radius r_plug = R_s is shattered
+      radius and not above the wall's own R1) above the ballistic limit (`_with_plug`: the blow pays
+      the onset energy, the plug's rim crack and the plugging loss, which pays the crushing), the
+      plugging loss of Recht & Ipson (1963): 1/2 m_s m_p / (m_s + m_p) v^2, m_p = rho pi R_s^2 B.
+      The plug radius r_plug = R_s is shattered
       whatever the energy (the striker goes through it) and, in subdivision mode, crushed one level
       finer than the particles (geometry/pulverise.py).
     U is spread in the material as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U / w,
