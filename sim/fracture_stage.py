@@ -67,18 +67,20 @@ def _to_reference(world, body: int, point: np.ndarray, normal: np.ndarray, state
     return rot.T @ (np.asarray(point) - st.x[body]) + com, rot.T @ np.asarray(normal)
 
 
-def _world_motion(world, body: int, x_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """World positions (K,3) m and velocities v + w x r (K,3) m/s of reference points of a body."""
+def _world_motion(world, body: int, x_ref: np.ndarray, state=None) -> tuple[np.ndarray, np.ndarray]:
+    """World positions (K,3) m and velocities v + w x r (K,3) m/s of reference points of a body
+    (`state`: the bodies' state if the caller already downloaded it)."""
     from rigid.quat import quat_to_matrix
 
-    st = world.rigid.body_state()
+    st = world.rigid.body_state() if state is None else state
     rot = quat_to_matrix(st.q[body])
     r = (np.asarray(x_ref) - world.rigid.body_ref_com(body)) @ rot.T
     return st.x[body] + r, st.v[body] + np.cross(st.w[body], r)
 
 
-def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray, fit: bool = True) -> float:
-    """Radius of curvature (m) of the body's surface at the contact (Hertz's R1 or R2): the fit of
+def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray, state, fit: bool = True) -> float:
+    """Radius of curvature (m) of a body's surface at the contact from its collision spheres (the
+    striker's R2; the struck body's own R1 comes from its faces, `surface_radius_at`): the fit of
     `sph.contact.surface_radius` to the centres of the body's boundary spheres within a patch of
     three sphere radii beyond the nearest (`inward`: world normal into this body), plus their radius;
     a flat or sparsely sampled patch counts as flat (inf). `fit=False`: the nearest sphere's radius
@@ -89,7 +91,7 @@ def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray,
     spheres = world.rigid.body_spheres(body)
     if len(spheres) == 0:
         return float("inf")
-    centres = world.rigid.sphere_world(spheres=spheres)
+    centres = world.rigid.sphere_world(state, spheres)
     radius = world.rigid.sphere_data()[1][spheres]
     dist = np.linalg.norm(centres - point_world, axis=1)
     k = int(np.argmin(dist))
@@ -99,7 +101,7 @@ def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray,
     return surface_radius(centres[patch], centres[k], inward, offset=float(radius[k]))
 
 
-def _contact_mass(world, body: int, point_world: np.ndarray, normal_world: np.ndarray) -> float:
+def _contact_mass(world, body: int, point_world: np.ndarray, normal_world: np.ndarray, st) -> float:
     """kg: the body's mass as seen along `normal_world` at a contact point (Stronge, Impact Mechanics,
     2000, ch. 5): 1 / (1/m + (r x n) . I^-1 (r x n)), r from the COM, I the world inertia; the
     rigid solver's impulse at that point moves this mass. A blow off the COM line also spins the
@@ -107,14 +109,13 @@ def _contact_mass(world, body: int, point_world: np.ndarray, normal_world: np.nd
     from rigid.quat import quat_to_matrix
 
     m = world.rigid.body_mass(body)
-    st = world.rigid.body_state()
     rot = quat_to_matrix(st.q[body])
     rn = np.cross(np.asarray(point_world, dtype=np.float64) - st.x[body], normal_world)
     inertia_w = rot @ world.rigid.body_inertia(body) @ rot.T
     return 1.0 / (1.0 / m + float(rn @ np.linalg.solve(inertia_w, rn)))
 
 
-def _striker_contact_mass(world, other: int, point_world: np.ndarray) -> float:
+def _striker_contact_mass(world, other: int, point_world: np.ndarray, st) -> float:
     """kg: `_contact_mass` of the body that struck, at its own surface nearest the struck point
     (its boundary sphere nearest the point, along that sphere's normal towards it): at first contact
     both surfaces share that normal. Its pose at the analysis is the one after the contact's
@@ -122,7 +123,7 @@ def _striker_contact_mass(world, other: int, point_world: np.ndarray) -> float:
     spheres = world.rigid.body_spheres(other)
     if len(spheres) == 0:
         return world.rigid.body_mass(other)
-    centres = world.rigid.sphere_world(spheres=spheres)
+    centres = world.rigid.sphere_world(st, spheres)
     k = int(np.argmin(np.linalg.norm(centres - point_world, axis=1)))
     towards = point_world - centres[k]
     dist = float(np.linalg.norm(towards))
@@ -130,7 +131,7 @@ def _striker_contact_mass(world, other: int, point_world: np.ndarray) -> float:
         return world.rigid.body_mass(other)
     n = towards / dist
     radius = float(world.rigid.sphere_data()[1][spheres[k]])
-    return _contact_mass(world, other, centres[k] + radius * n, -n)
+    return _contact_mass(world, other, centres[k] + radius * n, -n, st)
 
 
 def _contact_bodies(world, body: int, other: int, point: np.ndarray, normal: np.ndarray, R1: float) -> dict:
@@ -143,9 +144,9 @@ def _contact_bodies(world, body: int, other: int, point: np.ndarray, normal: np.
     from sph.contact import effective_isotropic
 
     st = world.rigid.body_state()
-    point_w = _world_motion(world, body, np.asarray(point)[None])[0][0]
+    point_w = _world_motion(world, body, np.asarray(point)[None], st)[0][0]
     normal_w = quat_to_matrix(st.q[body]) @ np.asarray(normal)  # into the struck body
-    out = dict(m1=_contact_mass(world, body, point_w, normal_w), R1=R1)
+    out = dict(m1=_contact_mass(world, body, point_w, normal_w, st), R1=R1)
     if other < 0 or world.rigid.body_is_static(other):
         if other < 0:
             col = world.cfg.colliders[0] if world.cfg.colliders else None
@@ -155,11 +156,11 @@ def _contact_bodies(world, body: int, other: int, point: np.ndarray, normal: np.
         out.update(m2=np.inf, R2=np.inf, E2=young, nu2=poisson)
     else:
         young, poisson = effective_isotropic(world.materials[_body_material(world, other)].stiffness)
-        out.update(m2=_striker_contact_mass(world, other, point_w), E2=young, nu2=poisson,
-                   R2=_local_radius(world, other, point_w, -normal_w),
+        out.update(m2=_striker_contact_mass(world, other, point_w, st), E2=young, nu2=poisson,
+                   R2=_local_radius(world, other, point_w, -normal_w, st),
                    striker_radius=cross_section(world, other, normal_w, st))
     if math.isinf(out["R1"]) and math.isinf(out["R2"]):  # flat on flat: an edge or corner bears the blow
-        out["R1"] = _local_radius(world, body, point_w, normal_w, fit=False)
+        out["R1"] = _local_radius(world, body, point_w, normal_w, st, fit=False)
     return out
 
 
@@ -424,9 +425,10 @@ def _free_particles(world, body: int, ps, idx: np.ndarray, store_idx: np.ndarray
 
     world.debris_pieces += len(idx)
     if world.cfg.has("debris"):
-        x_w, v_w = _world_motion(world, body, ps.centroid[idx])
+        st = world.rigid.body_state()
+        x_w, v_w = _world_motion(world, body, ps.centroid[idx], st)
         if push_ref is not None:
-            v_w = v_w + push_ref @ quat_to_matrix(world.rigid.body_state().q[body]).T
+            v_w = v_w + push_ref @ quat_to_matrix(st.q[body]).T
         world.debris.add(x_w, v_w, ps.radius[idx], store_idx)
     else:
         world.debris_mass += float(ps.mass[idx].sum())

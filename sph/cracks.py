@@ -313,9 +313,9 @@ def _checked_inputs(x, volume, G, crack_count, thickness, correction, field_kind
 def _plug_radius(impact: ImpactSpec, wf, fired: np.ndarray) -> float:
     """m: the radius of the plug a striker punches out of the struck wall (step 8), 0 for none. A plug
     needs a wall that bends (the plate field) and cracked, a moving striker, and wall around it to
-    punch it out of. Its radius is what of the striker meets the wall: its radius of curvature R2
-    there (a ball's radius; a fragment's edge or corner is sharp), at most its half-width across the
-    normal (ImpactSpec.striker_radius), and it must stay below half the plate's radius L. The wall
+    punch it out of. Its radius is the striker's radius of curvature R2 at the contact (a ball's
+    radius; a fragment's edge or corner is sharp), at most the striker's half-width across the normal
+    (ImpactSpec.striker_radius), and it must stay below half the plate's radius L. The wall
     must be at least as flat there as the striker (R1 >= R_s): a wall that meets the striker with an
     edge or a corner has that edge crushed, not a plug punched out. A collider, or a striker as
     wide as the wall, strikes the whole wall."""
