@@ -76,12 +76,13 @@ def test_contact_mass_of_a_slender_box_struck_at_its_end(taichi_runtime):
     }
     world = World(scene_from_dict(raw, "rod"))
     m = world.rigid.body_mass(0)
-    com = world.rigid.body_state().x[0]
+    st = world.rigid.body_state()
+    com = st.x[0]
     I = m * (L * L + w * w) / 12.0
     down = np.array([0.0, -1.0, 0.0])
-    end = _contact_mass(world, 0, com + [L / 2, w / 2, 0.0], down)
+    end = _contact_mass(world, 0, com + [L / 2, w / 2, 0.0], down, st)
     assert end == pytest.approx(1.0 / (1.0 / m + (L / 2) ** 2 / I), rel=1e-6)
-    assert _contact_mass(world, 0, com + [0.0, w / 2, 0.0], down) == pytest.approx(m, rel=1e-9)
+    assert _contact_mass(world, 0, com + [0.0, w / 2, 0.0], down, st) == pytest.approx(m, rel=1e-9)
 
 
 def test_onset_energy_and_the_plugging_loss():
