@@ -59,7 +59,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
                       progress=not args.no_progress, until_settled=not args.all_frames,
-                      colors=args.colors, export=exports)
+                      colors=args.colors, crack_lines=not args.no_crack_lines, export=exports)
     with af.Simulation(cfg) as sim:  # the Python API (docs/api.md)
         stats = sim.run_headless(opts)
     t1 = stats["table1"]
@@ -229,6 +229,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--colors", default="material", choices=["material", "fragments"],
                    help="faces in their material's look (crack faces shaded), or one colour per fragment")
+    r.add_argument("--no-crack-lines", action="store_true",
+                   help="do not draw the lines where cracks meet the surface (pieces that stay together)")
     r.add_argument("--all-frames", action="store_true",
                    help="run every frame (default: stop once every piece has rested for 1 s)")
     runtime_options(r)

@@ -288,17 +288,19 @@ class Simulation:
 
     # ------------------------------------------------------------------ pictures and files
     def render(self, width: int = RENDER_DEFAULT[0], height: int = RENDER_DEFAULT[1], camera=None,
-               renderer: str = "raster", colors: str = "material") -> np.ndarray:
+               renderer: str = "raster", colors: str = "material", crack_lines: bool = True) -> np.ndarray:
         """The current state as an image array (height, width, 3) uint8. `camera`: None for the
         scene's camera (following the bodies when the scene asks), or a dict(eye, target[, fov]) /
-        render.camera.Camera for a fixed view. `renderer`: 'raster' (no GPU needed) or 'ggui'."""
+        render.camera.Camera for a fixed view. `renderer`: 'raster' (no GPU needed) or 'ggui'.
+        `crack_lines`: draw the lines where cracks meet the surface (render/crack_lines.py)."""
         from render.camera import Camera
         from render.session import HeadlessSession
 
-        key = (renderer, int(width), int(height), colors)
+        key = (renderer, int(width), int(height), colors, bool(crack_lines))
         session = self._views.get(key)
         if session is None:
-            session = HeadlessSession(self.world, renderer, int(width), int(height), colors=colors)
+            session = HeadlessSession(self.world, renderer, int(width), int(height), colors=colors,
+                                      crack_lines=bool(crack_lines))
             self._views[key] = session
         if camera is None:
             img = session.draw()

@@ -16,6 +16,7 @@ import numpy as np
 from core.errors import ConfigError
 from geometry.surface import on_surface
 from render.camera import Camera
+from render.crack_lines import LIFT_REL, LINE_DARK, LINE_WIDTH_REL, line_color, ribbons
 from render.framing import FollowCamera
 from render.looks import CRACK_GREY, material_look
 from render.primitives import ground_quad
@@ -45,6 +46,7 @@ class SurfaceCache:
 
     def __init__(self) -> None:
         self._bodies: dict[int, tuple] = {}  # body -> (stamp, verts, faces, face_id, face_material)
+        self.order: list[int] = []  # bodies in the order of the last `surfaces` mesh
         self.face_material = np.zeros(0, np.int32)  # (F,) material of each face of the last `surfaces`
 
     def update(self, world) -> list[int]:
@@ -77,6 +79,7 @@ class SurfaceCache:
         from geometry.surface import SurfaceMesh
 
         bodies = self.update(world)
+        self.order = bodies
         verts, faces, face_id, vlab, flab, fmat = [], [], [], [], [], []
         offset = 0
         for b in bodies:
@@ -143,9 +146,12 @@ class SceneView:
     Colours: `colors="material"` draws each face in its material's look (render/looks.py) and the faces
     that cracks created in the look's crack shade; `colors="fragments"` gives every body its own
     palette colour (crack faces a shade of it). A face is a crack face when it does not lie on the
-    objects' surface at rest (geometry.surface.on_surface); the answer is cached per tet face."""
+    objects' surface at rest (geometry.surface.on_surface); the answer is cached per tet face.
+    `crack_lines`: where a crack face meets the outer surface, a thin line (render/crack_lines.py),
+    so that cracks show where the pieces stay together (a held pane's sectors, a crack that did not
+    separate); its geometry is cached per body until a fracture changes the body."""
 
-    def __init__(self, world, colors: str = "material") -> None:
+    def __init__(self, world, colors: str = "material", crack_lines: bool = True) -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
@@ -167,6 +173,11 @@ class SceneView:
         self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self._surfaces = SurfaceCache()
+        self.crack_lines = crack_lines
+        edge = np.median(np.linalg.norm(self._rest_tris - np.roll(self._rest_tris, 1, axis=1), axis=2)) \
+            if len(self._rest_tris) else 0.0
+        self._line_width, self._line_lift = LINE_WIDTH_REL * edge, LIFT_REL * edge  # m
+        self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
         self.refresh()
 
     def _outer_faces(self, mesh) -> np.ndarray:
@@ -204,7 +215,39 @@ class SceneView:
             look = self.looks[int(m)]
             parts.append(MeshPart(mesh.verts, mesh.faces[sel], body=mesh.vert_label, colors=color[sel],
                                   color_per="face", roughness=look.roughness, opacity=look.opacity))
+        if self.crack_lines:
+            parts += self._crack_line_part(outer, mat)
         return parts
+
+    def _crack_line_part(self, outer: np.ndarray, mat: np.ndarray) -> list[MeshPart]:
+        """The crack lines of every body (render/crack_lines.py), from the per-body cache; `outer` and
+        `mat` are per face of the last `surfaces` mesh (bodies in SurfaceCache.order)."""
+        verts, faces, body, face_mat = [], [], [], []
+        start = offset = 0
+        cache = {}
+        for b in self._surfaces.order:
+            stamp, v, f, _ = self._surfaces.body_mesh(b)
+            hit = self._ribbons.get(b)
+            if hit is None or hit[0] != stamp:
+                hit = (stamp, *ribbons(v, f, outer[start:start + len(f)], self._line_width, self._line_lift))
+            cache[b] = hit
+            _, rv, rf, on_face = hit
+            verts.append(rv)
+            faces.append(rf + offset)
+            body.append(np.full(len(rv), b, np.int64))
+            face_mat.append(mat[start + on_face])
+            start += len(f)
+            offset += len(rv)
+        self._ribbons = cache
+        if not offset:
+            return []
+        face_mat = np.concatenate(face_mat)
+        if self.colors == "fragments":  # light palette colours: the dark line
+            colors = np.broadcast_to(LINE_DARK, (len(face_mat), 3))
+        else:
+            colors = np.array([line_color(lk.color, lk.opacity) for lk in self.looks])[face_mat]
+        return [MeshPart(np.concatenate(verts), np.concatenate(faces), body=np.concatenate(body), colors=colors,
+                         color_per="face", roughness=1.0, opacity=1.0)]
 
     def refresh(self) -> None:
         """Bring surfaces (when fracture changed them) and poses up to date."""
@@ -239,12 +282,12 @@ class HeadlessSession:
     frame benchmark and the framing test draw frames in memory."""
 
     def __init__(self, world, kind: str, width: int, height: int, out: Path | None = None, video: str = "none",
-                 colors: str = "material") -> None:
+                 colors: str = "material", crack_lines: bool = True) -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.renderer = make_renderer(kind, width, height)  # first: a renderer that cannot start allocates nothing
         self.description = self.renderer.message
-        self.view = SceneView(world, colors)
+        self.view = SceneView(world, colors, crack_lines)
         self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
                                     follow=world.cfg.camera.mode == "follow")
         self.camera = self.framing.camera

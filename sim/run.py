@@ -56,6 +56,7 @@ class RunOptions:
     progress: bool = True
     until_settled: bool = True  # stop once nothing has moved for SETTLED_S (False: every frame)
     colors: str = "material"  # material: each material's look | fragments: a colour per fragment
+    crack_lines: bool = True  # draw where crack faces meet the outer surface (render/crack_lines.py)
 
 
 def versions() -> dict:
@@ -145,7 +146,8 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
         from render.session import HeadlessSession
 
         try:
-            renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors)
+            renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors,
+                                       opts.crack_lines)
         except BaseException:
             if own:
                 world.release()
