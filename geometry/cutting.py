@@ -47,7 +47,7 @@ class Crack:
     r_outer: float  # m: crack radius (Eq. 11)
     side: np.ndarray | None = None  # (3,) -: unit in-plane direction of the group, None = full disc
     r_inner: float = 0.0  # m: shatter radius (0 = no shattering)
-    r_plug: float = 0.0  # m: radius of a perforation plug within r_inner, crushed finer (0 = none)
+    r_crush: float = 0.0  # m: radius within r_inner that subdivision mode crushes into finer grains (0 = none)
     source: str = field(default="crack", compare=False)  # name for error messages
 
     def __post_init__(self) -> None:
@@ -77,11 +77,11 @@ class Crack:
         object.__setattr__(self, "point", p)
         object.__setattr__(self, "normal", n)
         object.__setattr__(self, "r_outer", r)
-        rp = float(self.r_plug)
-        if not (np.isfinite(rp) and 0.0 <= rp <= ri):
-            raise ConfigError(f"{src}.r_plug", self.r_plug, f"a finite radius in [0, r_inner = {ri:g}] m")
+        rc = float(self.r_crush)
+        if not (np.isfinite(rc) and 0.0 <= rc <= ri):
+            raise ConfigError(f"{src}.r_crush", self.r_crush, f"a finite radius in [0, r_inner = {ri:g}] m")
         object.__setattr__(self, "r_inner", ri)
-        object.__setattr__(self, "r_plug", rp)
+        object.__setattr__(self, "r_crush", rc)
         object.__setattr__(self, "side", side)
 
     @property

@@ -35,6 +35,7 @@ class FractureReport:
     subdivision: list[SubdivisionReport] = field(default_factory=list)  # one per crack (subdivision mode)
     removed_links: list[int] = field(default_factory=list)  # links removed by each crack
     debris: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # shattered particle ids
+    crushed: int = 0  # grain rows the crushed core added (subdivision mode: 4 per crushed particle)
     labels: np.ndarray | None = None  # (N,) fragment label per particle, -1 = dead or not touched
     n_fragments: int = 0
     # wall-clock seconds per stage (Table 2 of the paper: particle subdivision, crack generation)
@@ -114,8 +115,10 @@ def apply_cracks(
             ps, ids = shatter_particles(ps, crack, bodies=bodies)
             parts.append(ids)
         debris = np.unique(np.concatenate(parts)) if parts else debris
-        if mode == "subdivision":  # a perforation plug is crushed into grains below the particle size
+        if mode == "subdivision":  # the shattered core is crushed into grains below the particle size
+            n_before = len(ps)
             ps, debris = pulverise(ps, debris, cracks)
+            rep.crushed = len(ps) - n_before
         rep.debris = debris
         debris_body = ps.body[debris].copy()
         ps = replace(ps, body=ps.body.copy())

@@ -399,7 +399,7 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
         cracks=len(cracks), fragments=len(new_ids), debris=int(len(debris)), new_bodies=[int(b) for b in new_ids],
         # half the surface of every freed particle: each freed face is one side of a crack shared with a neighbour
         freed_area_m2=round(0.5 * float((np.sqrt(3.0) * edge**2).sum()), 12),
-        subdivided=int(sum(s.children for s in rep.subdivision)) if rep.subdivision else 0,
+        subdivided=int(sum(s.children for s in rep.subdivision) + rep.crushed),
         removed_links=int(sum(rep.removed_links)),
         particle_subdivision_ms=round(rep.timings["subdivision_s"] * 1e3, 3),
         crack_generation_ms=round((t_split - t_cut + rep.timings["links_s"] + rep.timings["shatter_s"]

@@ -391,7 +391,7 @@ def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: f
 
 
 def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
-                  r_out: np.ndarray, r_in: float, N: int, r_plug: float = 0.0) -> tuple[list[Crack], np.ndarray]:
+                  r_out: np.ndarray, r_in: float, N: int, r_crush: float = 0.0) -> tuple[list[Crack], np.ndarray]:
     """Step 6: a half-disc through P per fired group, with its crack normal, on the side of its
     bisector projected onto the crack plane (the inward normal if the bisector is within ~6 degrees
     of the crack normal); N = 1 gives a full disc. Returns (cracks, sides (N,3))."""
@@ -408,6 +408,6 @@ def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, f
                     break
         if side is not None:
             sides[k] = side
-        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, r_plug=r_plug,
+        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, r_crush=r_crush,
                             source=f"impact.group{k}"))
     return cracks, sides

@@ -96,8 +96,7 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
       the onset energy, the plug's rim crack and the plugging loss, which pays the crushing), the
       plugging loss of Recht & Ipson (1963): 1/2 m_s m_p / (m_s + m_p) v^2, m_p = rho pi R_s^2 B.
       The plug radius r_plug = R_s is shattered
-      whatever the energy (the striker goes through it) and, in subdivision mode, crushed one level
-      finer than the particles (geometry/pulverise.py).
+      whatever the energy (the striker goes through it).
     U is spread in the material as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U / w,
     h = rho_P, w = sum_j V_j 315/(64 pi h^9) (h^2 - d_j^2)^3 the share of the kernel's integral
     that lies in the body (a thin wall fills a small part of the sphere). A particle shatters where
@@ -105,6 +104,10 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
     half its surface (each face it frees is one side of a crack it shares with a neighbour):
     u_limit = G_c A_P / (2 V_P) (regular tet: A = sqrt3 e^2).
     r_inner^2 = h^2 - (64 pi h^9 u_limit w / (315 U))^(1/3) when positive, else 0; at least r_plug.
+    The core the adaptive model resolves finer: where u also frees grains of a quarter of the
+    particle's volume (the level at which subdivision resolves a crack; u_limit ~ 1 / edge, so
+    4^(1/3) u_limit), r_fine^2 = h^2 - 4^(1/9) (h^2 - r_inner^2); r_crush = max(r_plug, r_fine) is
+    crushed into such grains in subdivision mode (geometry/pulverise.py), freed whole in basic mode.
     Cracks carry r_inner only if at least one group fired. Why the onset energy and not the energy
     at the peak force: docs/notes_cracks.md section 4.
 
@@ -123,6 +126,7 @@ import numpy as np
 
 from core.errors import ConfigError
 from geometry.cutting import Crack
+from geometry.pulverise import GRAINS_PER_PARTICLE
 from sph import algorithm1 as alg
 from sph.algorithm1 import tet_edge
 from sph.contact import HertzImpact, effective_isotropic, hertz_impact, hertz_threshold_speed, speed_for_force
@@ -216,6 +220,7 @@ class ImpactAnalysis:
     r_inner: float  # m: shatter radius (U_limit); attached to the cracks only when one fired
     shatter_energy: float  # J: the energy spread by U_limit (onset energy plus a plug's, step 8)
     r_plug: float  # m: radius of the plug a perforating striker punches out (0: none)
+    r_crush: float  # m: radius crushed into quarter grains in subdivision mode (the plug and r_fine; step 8)
     u_limit: float  # J/m^3: shatter threshold energy density
     kinetic_energy: float  # J: 1/2 m* v^2
     tensile_strength: float  # Pa
@@ -268,6 +273,7 @@ class ImpactAnalysis:
             ],
             "r_inner": float(self.r_inner),
             "r_plug": float(self.r_plug),
+            "r_crush": float(self.r_crush),
             "shatter_energy": float(self.shatter_energy),
             "u_limit": float(self.u_limit),
             "kinetic_energy": float(self.kinetic_energy),
@@ -340,7 +346,8 @@ def _with_plug(U_onset: float, K: float, impact: ImpactSpec, wf, nb, fired: np.n
     Gc, B = float(material.toughness), wf.plate_thickness
     plug = alg.plug_energy(impact.m2, material.density, r_plug, B, impact.speed)
     rim = Gc * 2.0 * math.pi * r_plug * B
-    crush = alg.u_limit(Gc, nb.e_near / 4.0 ** (1.0 / 3.0), nb.V_near / 4.0) * math.pi * r_plug**2 * B
+    crush = alg.u_limit(Gc, nb.e_near / GRAINS_PER_PARTICLE ** (1.0 / 3.0), nb.V_near / GRAINS_PER_PARTICLE) \
+        * math.pi * r_plug**2 * B
     if K >= U_onset + rim + plug and plug >= crush:
         return U_onset + plug, r_plug
     return U_onset, 0.0
@@ -405,7 +412,12 @@ def analyse_impact(
     weight = alg.material_weight(nb.dist2, volume, nb.rho)
     r_in, u_lim = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
     r_in = max(r_in, r_plug)
-    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_plug)
+    # where the same energy frees grains of a quarter of the particle's volume (the level at which
+    # subdivision resolves a crack), subdivision mode crushes the particles into such grains
+    r_fine, _ = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near / GRAINS_PER_PARTICLE ** (1.0 / 3.0),
+                                   nb.V_near / GRAINS_PER_PARTICLE, weight)
+    r_crush = max(r_plug, r_fine)
+    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
     return ImpactAnalysis(
         cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,
@@ -415,7 +427,7 @@ def analyse_impact(
         grad_u=gs["grad_u"], strain=gs["strain"], stress=gs["stress"], tension=gs["tension_per_newton"] * F,
         principal_stress=pvals, principal_dir=pdirs, tension_per_newton=peak, energy=gs["energy"],
         energy_available=U_av, fired=fired, r_outer=r_out, side=sides, r_inner=r_in, u_limit=u_lim,
-        shatter_energy=U_sh, r_plug=r_plug,
+        shatter_energy=U_sh, r_plug=r_plug, r_crush=r_crush,
         kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim,
     )
 

@@ -115,7 +115,7 @@ def test_a_pulverised_plug_keeps_mass_and_volume(taichi_runtime):
     ps = build_object("pane", shape_params=dict(size=[0.1, 0.1, 0.008]), resolution=0.01).particles
     P = np.array([0.0, 0.0, 0.004])
     inner = np.flatnonzero(np.linalg.norm(ps.centroid - P, axis=1) < 0.03)
-    crack = Crack(point=P, normal=[1.0, 0.0, 0.0], r_outer=0.05, r_inner=0.03, r_plug=0.015)
+    crack = Crack(point=P, normal=[1.0, 0.0, 0.0], r_outer=0.05, r_inner=0.03, r_crush=0.015)
     out, debris = pulverise(ps, inner, [crack])
     plug = inner[np.linalg.norm(ps.centroid[inner] - P, axis=1) < 0.015]
     assert plug.size > 0 and len(debris) == len(inner) + 3 * plug.size
@@ -169,11 +169,41 @@ def test_a_plug_forms_only_above_the_ballistic_limit(taichi_runtime):
         crush = u_limit(Gc, tet_edge(V / 4.0), V / 4.0) * math.pi * R * R * B
         expect = bool(an.kinetic_energy >= onset + Gc * 2.0 * math.pi * R * B + plug and plug >= crush)
         assert (an.r_plug > 0.0) == expect, (v, an.r_plug, an.kinetic_energy, onset, plug, crush)
-        assert an.r_inner >= an.r_plug
+        assert an.r_inner >= an.r_crush >= an.r_plug
         seen.add(expect)
     assert seen == {False, True}
     with pytest.raises(ConfigError, match="impact.striker_radius"):
         ImpactSpec(point=[0.0, 0.0, 0.0], normal=[0.0, 0.0, -1.0], speed=1.0, m1=1.0, R1=0.1, striker_radius=-0.01)
+
+
+def test_subdivision_crushes_where_quarter_grains_break_free(taichi_runtime):
+    """A glass pane struck by a broad rigid striker (no plug) shatters within r_inner; grains of a
+    quarter of a particle's volume need 4^(1/3) the energy density (u_limit ~ 1 / edge), which the
+    poly6 profile reaches where (h^2 - r^2)^3 is 4^(1/3) larger: r_crush^2 = h^2 - 4^(1/9) (h^2 - r_inner^2).
+    The same cracks then free 3 more grains per particle within r_crush in subdivision mode than in
+    basic mode (each crushed into four): the adaptive model resolves the shattered core finer."""
+    from geometry.fragments import apply_cracks
+    from sph.cracks import ImpactSpec, analyse_impact
+    from sph.kernel import kernel_isotropic
+    from sph.materials import Material, stiffness_isotropic
+
+    B = 0.008
+    ps = build_object("pane", shape_params=dict(size=[0.3, 0.3, B]), resolution=0.01).particles
+    glass = Material("glass", 2500.0, stiffness_isotropic(7e10, 0.22), tensile_strength=4e7, toughness=8.0)
+    spec = ImpactSpec(point=[0.001, 0.002, 0.5 * B], normal=[0.0, 0.0, -1.0], speed=8.0, m1=float(ps.mass.sum()),
+                      R1=math.inf, m2=math.inf, R2=1.0, E2=2.1e11, nu2=0.3)
+    an = analyse_impact(ps.centroid, ps.volume, kernel_isotropic(0.02), glass, spec, 4, B)
+    h2 = an.support_radius**2
+    assert an.fired.any() and an.r_plug == 0.0 and an.r_inner > 0.0
+    assert an.r_crush == pytest.approx(math.sqrt(h2 - 4.0 ** (1.0 / 9.0) * (h2 - an.r_inner**2)), rel=1e-9)
+    assert all(c.r_crush == an.r_crush for c in an.cracks) and an.r_crush < an.r_inner
+    P = an.cracks[0].point
+    crushed = int((np.linalg.norm(ps.centroid - P, axis=1) < an.r_crush).sum())
+    _, basic = apply_cracks(ps, an.cracks, mode="basic", shatter=True)
+    out, fine = apply_cracks(ps, an.cracks, mode="subdivision", shatter=True)
+    assert crushed > 0 and len(fine.debris) == len(basic.debris) + 3 * crushed
+    assert fine.n_fragments > basic.n_fragments
+    assert out.mass[out.alive].sum() == pytest.approx(ps.mass.sum(), rel=1e-12)
 
 
 def test_push_profile_is_the_fields_own_deflection_shape():
