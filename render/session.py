@@ -137,7 +137,9 @@ def floor_height(world) -> float | None:
 
 COLOR_MODES = ("material", "fragments")  # --colors: each material's look, or one colour per fragment
 ON_SURFACE_REL = 1e-7  # -: a face within this share of the scene's size of the rest surface is an outer face
-SURFACE_HEADROOM = 3  # -: triangle capacity reserved, in multiples of the objects' rest surface
+# -: triangle capacity reserved, in multiples of the objects' rest surface: the rest surface, the crack
+# faces of the first events (about as many again, twice over) and their crack lines (two per rim edge)
+SURFACE_HEADROOM = 4
 
 
 class SceneView:
