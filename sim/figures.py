@@ -49,45 +49,48 @@ FIGURES = (
               "subdivided particle method (right)",
            (Row("pot_basic", "basic link removal (paper: left)", "Pot1", 6),
             Row("pot", "adaptive subdivision (paper: right)", "Pot2", 14)),
-           "The paper's pot breaks into a handful of large shards that lie around the impact; ours breaks "
-           "into two or three large pieces plus the shatter zone's single particles (drawn as small "
-           "spheres), so our counts are dominated by debris (see the README's counts table). Basic "
-           "removal gives jagged polygonal cracks and subdivision straight ones, as in the paper."),
+           "Both pots break along a Y of three cracks into three large pieces (the bowl of the bottom and "
+           "two wall shells) plus a few single particles; the crack lines show the Y as the pot lands and "
+           "the cracks its later landings leave without separating them. The paper's pots break into more "
+           "pieces (6 and 14). Basic removal gives jagged cracks along tet faces and subdivision straight "
+           "ones, as in the paper; our adaptive pot does not give more pieces than the basic one: its "
+           "shatter zone (2.7 mm) holds no particle to crush finer (docs/decisions.md)."),
     Figure(8, "The same scene of falling pot for anisotropic material with different kernel. The "
               "interaction along the surface is adjusted to 1/5 (left) and 3 (right) times",
            (Row("pot_aniso_low", "kernel x1/5 along the surface (paper: left)"),
             Row("pot_aniso_high", "kernel x3 along the surface (paper: right)")),
-           "Ours shows the kernel changing the outcome more than the paper's: with the kernel x1/5 the pot "
-           "keeps whole apart from a small shatter zone (12 grains), with x3 it splits into large pieces "
-           "along several cracks plus 262 grains. The paper shows both pots broken, with different crack "
-           "directions, and gives no counts for Fig. 8."),
+           "The kernel changes where the cracks run: x1/5 along the surface, the wall opens along long "
+           "cracks into three large pieces and 24 grains; x3, three large pieces and a chip. The paper "
+           "shows both pots broken, with different crack directions, and gives no counts for Fig. 8."),
     Figure(9, "A ball collapses through glass window, breaks into a hole and crack propagates without "
               "destroying the global structure. Fracture surface normal is the same while different "
               "ball sizes lead to different radii. The radii of balls are 3 and 5",
            (Row("glass_r3", "ball radius 3 cm", "Glass1", 436),
             Row("glass_r5", "ball radius 5 cm", "Glass2", 598)),
-           "The hole and the radial cracks around it match the paper's pattern and the pane stays "
-           "held. Ours: the ball bounces back off the pane instead of going through it (fracture is "
-           "applied after the contact is solved), and the hole is bounded by the 10 cm kernel, so fewer "
-           "shards than the paper's 436 / 598."),
+           "The hole and the cobweb of six radial cracks around it (drawn as lines: the sectors stay in the"
+           " frame) match the paper's pattern, the pane stays held, and the crushed core bursts through "
+           "with the ball; the 5 cm ball makes the larger hole. The camera follows the flying grains, so "
+           "the last frame shows the pane small."),
     Figure(10, "Pots are dropped and fractured into 117 fragments. The top two are sideview display and "
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
-           "The paper shows 117 visible fragments (587 counted); ours show many more, most of them "
-           "shatter-zone debris: the point load on a thin wall overestimates the stress (README). No "
-           "zoom-in from above: the sheet keeps one camera per scene."),
+           "A heap of shards of many sizes, as in the paper; our count (1,137 against 587) is mostly the "
+           "grains of crushed cores where shards strike each other. No zoom-in from above: the sheet keeps "
+           "one camera per scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor into many "
-           "small pieces that scatter widely (767 pieces against the paper's 47); the camera backs off to "
-           "keep them all in view, so the last frame shows them small."),
+           "paper). The ball splits it where it lands and the parts break again on the floor (60 pieces "
+           "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
+           "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
                "different propagation directions during one collision",
            (Row("taichi", "white marble and black slate halves", "Tai Chi", 87),),
-           "Black and white halves as in the paper; cracks stop at the interface and restart with the "
-           "other material's direction. Our count is within 2x of the paper's 87."),
+           "Black and white halves as in the paper; a crack that reaches the other material stops and "
+           "restarts with that material's direction (the slate's cuts jagged, the marble's straight). The "
+           "disc lands on its rim and breaks into four large wedges and many small pieces: 42 against the "
+           "paper's 87."),
 )
 
 
