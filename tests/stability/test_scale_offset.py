@@ -127,7 +127,7 @@ print(json.dumps(out))
 def test_translated_scene_in_single_precision(files):
     """f32 (the default of `main.py run`): positions are resolved to ulp(|x|), so the contact point and
     the cut move with the offset. At 10 m: masses within 1e-4 relative, centres within 0.5 mm; at 1e3 m
-    the body count holds to one piece (the shattered grains within 2%) but masses differ by up to 3e-2
+    the body count holds to one piece (the shattered grains within 3%) but masses differ by up to 3e-2
     and centres by up to 2 cm (measured: 1.7e-2; the crack point is the foot of the striker's centre,
     which f32 keeps to 6e-5 m there, and the ball's radius of curvature fitted for Hertz moves by 1.5%,
     and the shatter and plug radii with it: a particle wedged between two cracks at the rim of the
@@ -141,8 +141,10 @@ def test_translated_scene_in_single_precision(files):
     for d, mass_tol, x_tol, pieces in (("10.0", 1e-4, 5e-4, 0), ("1000.0", 3e-2, 2e-2, 1)):
         far = res[d]
         assert abs(far["count"] - ref["count"]) <= pieces
-        # a grain at the edge of the shattered zone may fall either side of r_inner at ulp(|x|)
-        assert abs(far["debris"] - ref["debris"]) <= max(3, 0.02 * ref["debris"])
+        # a grain at the edge of the shattered zone may fall either side of r_inner at ulp(|x|); at 1e3 m
+        # the radii move by up to 1.5% (docstring), and the grains of a plate's shattered and crushed
+        # zones go as their radius squared: up to 3% (a particle crossing r_crush is 4 grains or 1)
+        assert abs(far["debris"] - ref["debris"]) <= max(3, 0.03 * ref["debris"])
         # each reference piece against the far piece nearest to it (an extra wedge has no partner)
         x, x0 = np.array(far["x"]), np.array(ref["x"])
         m, m0 = np.array(far["mass"]), np.array(ref["mass"])
