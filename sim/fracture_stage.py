@@ -335,7 +335,7 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
                               thickness=world.bodies[body].thickness)
         # the shatter zone belongs to the contact, not to the crossing
         source = f"{crack.source}.crossing.material{first.material}"
-        out += [replace(c, r_inner=0.0, source=source) for c in more.cracks]
+        out += [replace(c, r_inner=0.0, r_crush=0.0, source=source) for c in more.cracks]
     return out
 
 

@@ -6,7 +6,7 @@ with the other material's constants and kernel (sim/fracture_stage.py, across_ma
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -85,5 +85,5 @@ def stop_at_crossings(crack: Crack, crossings: list[MaterialCrossing]) -> Crack:
     if not crossings:
         return crack
     r = max(min(c.distance for c in crossings), 1e-12)
-    return Crack(point=crack.point, normal=crack.normal, r_outer=min(crack.r_outer, r), side=crack.side,
-                 r_inner=min(crack.r_inner, r), source=crack.source)
+    r_inner = min(crack.r_inner, r)
+    return replace(crack, r_outer=min(crack.r_outer, r), r_inner=r_inner, r_crush=min(crack.r_crush, r_inner))

@@ -33,6 +33,12 @@ def test_half_disc_towards_the_interface_finds_it(two_material_plate):
     stopped = stop_at_crossings(crack, found)
     assert stopped.r_outer == pytest.approx(first.distance)
     assert np.array_equal(stopped.side, crack.side) and np.array_equal(stopped.normal, crack.normal)
+    # the shatter zone and its crushed core stay (within the shortened crack), whatever they were
+    for r_inner, r_crush in ((0.03, 0.02), (0.2, 0.15)):
+        zone = stop_at_crossings(Crack(point=crack.point, normal=crack.normal, r_outer=0.2, side=crack.side,
+                                       r_inner=r_inner, r_crush=r_crush, source="c"), found)
+        assert zone.r_inner == pytest.approx(min(r_inner, first.distance))
+        assert zone.r_crush == pytest.approx(min(r_crush, zone.r_inner)) and zone.source == "c"
 
 
 def test_half_disc_away_from_the_interface_finds_nothing(two_material_plate):
