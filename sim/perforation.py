@@ -90,7 +90,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     vd = parts["debris_v"].copy() if info.static else field(parts["debris_x"])
     m_sw = parts["debris_m"][swept]
     p_swept = (m_sw[:, None] * vd[swept]).sum(0)  # kg m/s: the swept debris' momentum before the sweep
-    v_out = (m * v_free + (m_sw[:, None] * vd[swept]).sum(0)) / (m + m_sw.sum())  # an inelastic sweep
+    v_out = (m * v_free + p_swept) / (m + m_sw.sum())  # an inelastic sweep
     # what the striker lost to the fracture pushes the rest of a free body on (momentum conserved)
     rest = float(parts["body_m"].sum() + parts["debris_m"][~swept].sum())
     dv = m * (v_pre - v_free) / rest if (not info.static and rest > 0.0) else np.zeros(3)

@@ -95,8 +95,7 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
       radius and not above the wall's own R1) above the ballistic limit (`_with_plug`: the blow pays
       the onset energy, the plug's rim crack and the plugging loss, which pays the crushing), the
       plugging loss of Recht & Ipson (1963): 1/2 m_s m_p / (m_s + m_p) v^2, m_p = rho pi R_s^2 B.
-      The plug radius r_plug = R_s is shattered
-      whatever the energy (the striker goes through it).
+      The plug radius r_plug = R_s is shattered whatever the energy (the striker goes through it).
     U is spread in the material as the energy density u(r) = 315/(64 pi h^9) (h^2 - r^2)^3 U / w,
     h = rho_P, w = sum_j V_j 315/(64 pi h^9) (h^2 - d_j^2)^3 the share of the kernel's integral
     that lies in the body (a thin wall fills a small part of the sphere). A particle shatters where
@@ -333,6 +332,12 @@ def _plug_radius(impact: ImpactSpec, wf, fired: np.ndarray) -> float:
     return R_s if 0.0 < R_s < 0.5 * wf.plate_radius else 0.0
 
 
+def _grain(nb) -> tuple[float, float]:
+    """(edge m, volume m^3) of the grains the crushed core is made of: the nearest particle's tet split
+    into GRAINS_PER_PARTICLE (geometry/pulverise.py), taken as regular tets of that volume."""
+    return nb.e_near / GRAINS_PER_PARTICLE ** (1.0 / 3.0), nb.V_near / GRAINS_PER_PARTICLE
+
+
 def _with_plug(U_onset: float, K: float, impact: ImpactSpec, wf, nb, fired: np.ndarray,
                material: Material) -> tuple[float, float]:
     """(shatter energy J, plug radius m) (step 8): the onset energy, plus the plugging loss where a
@@ -346,8 +351,7 @@ def _with_plug(U_onset: float, K: float, impact: ImpactSpec, wf, nb, fired: np.n
     Gc, B = float(material.toughness), wf.plate_thickness
     plug = alg.plug_energy(impact.m2, material.density, r_plug, B, impact.speed)
     rim = Gc * 2.0 * math.pi * r_plug * B
-    crush = alg.u_limit(Gc, nb.e_near / GRAINS_PER_PARTICLE ** (1.0 / 3.0), nb.V_near / GRAINS_PER_PARTICLE) \
-        * math.pi * r_plug**2 * B
+    crush = alg.u_limit(Gc, *_grain(nb)) * math.pi * r_plug**2 * B
     if K >= U_onset + rim + plug and plug >= crush:
         return U_onset + plug, r_plug
     return U_onset, 0.0
@@ -414,8 +418,7 @@ def analyse_impact(
     r_in = max(r_in, r_plug)
     # where the same energy frees grains of a quarter of the particle's volume (the level at which
     # subdivision resolves a crack), subdivision mode crushes the particles into such grains
-    r_fine, _ = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near / GRAINS_PER_PARTICLE ** (1.0 / 3.0),
-                                   nb.V_near / GRAINS_PER_PARTICLE, weight)
+    r_fine, _ = alg.shatter_radius(U_sh, nb.rho, Gc, *_grain(nb), weight)
     r_crush = max(r_plug, r_fine)
     cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
