@@ -1,13 +1,14 @@
-"""Start-up (core/taichi_frontend.py, core/runtime.py): the memoised TextWrapper gives Taichi's
-frontend exactly the text the standard one gives, so a kernel's compile error reads the same, and
-init_taichi installs it; the offline kernel cache is large enough not to evict."""
+"""Start-up (core/taichi_frontend.py, core/runtime.py): the memoised TextWrapper, source excerpts and
+source lookups give Taichi's frontend exactly what the standard ones give, so a kernel's compile
+error reads the same and a method kernel is still told from a plain one, and init_taichi installs
+them; the offline kernel cache is large enough not to evict."""
 
-from __future__ import annotations
-
+import inspect
 import textwrap
 
 import pytest
 import taichi as ti
+from taichi.lang import kernel_impl
 from taichi.lang.ast import ast_transformer_utils
 
 from core.taichi_frontend import MemoTextWrapper
@@ -37,8 +38,9 @@ def test_installed_by_init_taichi():
     assert ast_transformer_utils.TextWrapper is MemoTextWrapper
 
 
-def _compile_error(monkeypatch, wrapper) -> str:
+def _compile_error(monkeypatch, wrapper, pos_info) -> str:
     monkeypatch.setattr(ast_transformer_utils, "TextWrapper", wrapper)
+    monkeypatch.setattr(ast_transformer_utils.ASTTransformerContext, "get_pos_info", pos_info)
 
     @ti.kernel
     def broken():
@@ -50,10 +52,46 @@ def _compile_error(monkeypatch, wrapper) -> str:
 
 
 def test_a_compile_error_reads_the_same(monkeypatch):
-    memo = _compile_error(monkeypatch, MemoTextWrapper)
-    plain = _compile_error(monkeypatch, textwrap.TextWrapper)
+    installed = ast_transformer_utils.ASTTransformerContext.get_pos_info
+    assert installed.memoised
+    memo = _compile_error(monkeypatch, MemoTextWrapper, installed)
+    again = _compile_error(monkeypatch, MemoTextWrapper, installed)  # from the memo
+    plain = _compile_error(monkeypatch, textwrap.TextWrapper, installed.original)
     assert "undefined_name_for_the_test" in memo and "^" in memo
-    assert memo.splitlines()[1:] == plain.splitlines()[1:]  # line 0 names the file and line number
+    assert memo.splitlines()[1:] == plain.splitlines()[1:] == again.splitlines()[1:]  # line 0: file and line
+
+
+def test_memoised_source_lookups_equal_inspect_and_are_copies():
+    lines, start = kernel_impl.getsourcelines(_compile_error)
+    assert kernel_impl.getsourcelines.memoised and kernel_impl.getsourcefile.memoised
+    assert (lines, start) == kernel_impl.getsourcelines.original(_compile_error) == inspect.getsourcelines(
+        _compile_error)
+    assert kernel_impl.getsourcefile(_compile_error) == inspect.getsourcefile(_compile_error)
+    lines.append("changed by a caller")
+    assert kernel_impl.getsourcelines(_compile_error)[0] == inspect.getsourcelines(_compile_error)[0]
+
+
+def test_a_method_kernel_is_still_told_from_a_plain_one():
+    assert kernel_impl._inside_class.memoised
+
+    @ti.data_oriented
+    class Scaled:
+        def __init__(self):
+            self.value = ti.field(ti.f64, shape=())
+
+        @ti.kernel
+        def fill(self, v: ti.f64):
+            self.value[None] = 2.0 * v
+
+    s = Scaled()
+    s.fill(1.5)  # a method kernel taken for a plain one would not bind self
+    assert s.value[None] == 3.0
+
+    @ti.kernel
+    def plain() -> ti.f64:
+        return 1.0
+
+    assert plain() == 1.0
 
 
 def test_the_offline_cache_is_large_enough_not_to_evict():
