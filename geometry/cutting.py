@@ -4,6 +4,9 @@ A crack (Algorithm 1 of the paper gives one per group) is the part of a plane (p
 normal n) within `r_outer` of P, restricted to the half-plane (x - P) . side >= 0 of its group's
 in-plane direction `side` (a half-disc); `side = None` gives the full disc. `r_inner > 0` marks the
 shatter radius: every particle whose rest centroid lies within it loses all its links (debris).
+A crack from an impact analysis also carries its `ShatterField`, the shatter energy's spread around
+P, so that each particle is freed by its own size: a smaller particle needs a higher energy density
+(r_inner is then the radius for particles of the reference size).
 
 Link-removal rule (both modes, one rule for face links and extra links): the link between
 particles i and j is removed when the segment joining their rest centroids crosses the crack
@@ -20,13 +23,14 @@ cut points needs f64); no Python loop runs per particle.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.particles import ParticleSet
+from geometry.particles import ParticleSet, tet_edge
 
 Bodies = Iterable[int] | int | None  # body ids an operation touches (None = every body)
 
@@ -36,6 +40,48 @@ def _vec3(value, key: str) -> np.ndarray:
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise ConfigError(key, value, "three finite numbers")
     return a
+
+
+GRAIN_LEVEL = 4.0 ** (1.0 / 9.0)  # a quarter-volume grain's u_limit is 4^(1/3) higher: level x 4^(1/9) (see below)
+
+
+@dataclass(frozen=True)
+class ShatterField:
+    """The shatter energy U spread around P by the poly6 kernel of support h (sph/cracks.py step 8):
+    u(d) = 315/(64 pi h^9) (h^2 - d^2)^3 U / w. A particle of tet edge e is freed where u exceeds its
+    own u_limit = G_c A / (2 V) ~ 1/e, i.e. within
+
+        d^2 < h^2 (1 - level (edge / e)^(1/3)),   level = (64 pi h^9 u_limit(edge) w / (315 U))^(1/3) / h^2,
+
+    `edge` the reference particle's (the one nearest P). Quarter-volume grains need 4^(1/3) that
+    energy density (level x 4^(1/9)): subdivision mode crushes a physical particle where they break
+    free. Every particle within `r_plug` (a striker's plug) is freed and crushed; none beyond `cap`
+    (a crack stopped at another material)."""
+
+    support: float  # m: h, the spread's support (the analysed kernel's radius)
+    level: float  # -: see above; >= 1 where the reference particle is not freed
+    edge: float  # m: tet edge of the reference particle
+    r_plug: float = 0.0  # m
+    cap: float = math.inf  # m
+
+    def __post_init__(self) -> None:
+        for key in ("support", "level", "edge", "r_plug", "cap"):
+            v = float(getattr(self, key))
+            if not (v >= 0.0 and not math.isnan(v)) or (key != "cap" and math.isinf(v)):
+                raise ConfigError(f"shatter.{key}", getattr(self, key), "a finite value >= 0")
+            object.__setattr__(self, key, v)
+
+    def radius2(self, volume: np.ndarray, grains: bool = False) -> np.ndarray:
+        """(K,) m^2: squared radius within which particles of these volumes (K,) m^3 are freed (or,
+        `grains`, crushed into quarter grains)."""
+        e = np.maximum(tet_edge(volume), 1e-300)
+        level = self.level * (GRAIN_LEVEL if grains else 1.0) * np.cbrt(self.edge / e)
+        r2 = np.maximum(self.support**2 * (1.0 - level), self.r_plug**2)
+        return np.minimum(r2, self.cap**2)
+
+    def radius(self, volume: float, grains: bool = False) -> float:
+        """m: the radius for one particle volume."""
+        return float(np.sqrt(self.radius2(np.array([volume]), grains)[0]))
 
 
 @dataclass(frozen=True)
@@ -48,6 +94,7 @@ class Crack:
     side: np.ndarray | None = None  # (3,) -: unit in-plane direction of the group, None = full disc
     r_inner: float = 0.0  # m: shatter radius (0 = no shattering)
     r_crush: float = 0.0  # m: radius within r_inner that subdivision mode crushes into finer grains (0 = none)
+    shatter: ShatterField | None = None  # per particle size (r_inner, r_crush: the reference size's); None: radii
     source: str = field(default="crack", compare=False)  # name for error messages
 
     def __post_init__(self) -> None:
@@ -312,17 +359,26 @@ def remove_crossed_links(
     return replace(ps, links=links, extra_links=ps.extra_links[~extra].copy()), n_removed
 
 
+def shatter_radius2(crack: Crack, volume: np.ndarray, grains: bool = False) -> np.ndarray:
+    """(K,) m^2: squared radius around the crack point within which particles of these volumes are
+    freed (`grains`: crushed), by the crack's ShatterField, else r_inner (r_crush) for all."""
+    if crack.shatter is None:
+        return np.full(len(volume), (crack.r_crush if grains else crack.r_inner) ** 2)
+    return crack.shatter.radius2(volume, grains)
+
+
 def shatter_particles(ps: ParticleSet, crack: Crack, bodies: Bodies = None) -> tuple[ParticleSet, np.ndarray]:
-    """Particles whose rest centroid lies within r_inner of P lose all their links (debris).
+    """Particles whose rest centroid lies within the shatter radius of P (r_inner, or their size's by
+    the crack's ShatterField) lose all their links (debris).
 
     Returns a new ParticleSet and the ids of the shattered particles (ascending).
     """
-    if crack.r_inner <= 0.0:
+    if crack.r_inner <= 0.0 and crack.shatter is None:
         return ps, np.zeros(0, dtype=np.int64)
     idx = np.flatnonzero(body_mask(ps, bodies))
     d = ps.centroid[idx] - crack.point
     debris = np.zeros(len(ps.alive), dtype=bool)
-    debris[idx[np.einsum("ij,ij->i", d, d) < crack.r_inner**2]] = True
+    debris[idx[np.einsum("ij,ij->i", d, d) < shatter_radius2(crack, ps.volume[idx])]] = True
     links = ps.links.copy()
     links[debris] = -1
     links[(links >= 0) & debris[np.maximum(links, 0)]] = -1

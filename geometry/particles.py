@@ -18,6 +18,11 @@ KIND_PHYSICAL = 0  # a particle made from an input tet
 KIND_SUBDIVIDED = 1  # a child made by adaptive subdivision (Sect. 5.2)
 
 
+def tet_edge(volume):
+    """Edge (m) of the regular tet of each volume (m^3): scalar or array."""
+    return np.cbrt(6.0 * np.sqrt(2.0) * np.asarray(volume, dtype=np.float64))
+
+
 @dataclass
 class ParticleSet:
     """Struct of arrays for tet particles of one or more bodies, in the reference frame (m, kg)."""

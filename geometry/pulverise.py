@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from geometry.cutting import Crack
+from geometry.cutting import Crack, shatter_radius2
 from geometry.particles import KIND_PHYSICAL, ParticleSet
 from geometry.subdivision import with_children
 
@@ -34,15 +34,15 @@ def centroid_split(verts: np.ndarray) -> np.ndarray:
 
 def pulverise(ps: ParticleSet, debris: np.ndarray, cracks: list[Crack]) -> tuple[ParticleSet, np.ndarray]:
     """Split the physical particles among `debris` (ids, already unlinked) that lie within a crack's
-    r_crush into their four centroid children. Returns the new ParticleSet (children appended, parents dead)
-    and the debris ids with each split parent replaced by its children (ascending)."""
-    if len(debris) == 0 or not any(c.r_crush > 0.0 for c in cracks):
+    r_crush (by their size, with the crack's ShatterField) into their four centroid children.
+    Returns the new ParticleSet (children appended, parents dead) and the debris ids with each split
+    parent replaced by its children (ascending)."""
+    if len(debris) == 0 or not any(c.r_crush > 0.0 or c.shatter is not None for c in cracks):
         return ps, debris
     crushed = np.zeros(len(debris), dtype=bool)
     x = ps.centroid[debris]
     for c in cracks:
-        if c.r_crush > 0.0:
-            crushed |= np.einsum("ij,ij->i", x - c.point, x - c.point) < c.r_crush**2
+        crushed |= np.einsum("ij,ij->i", x - c.point, x - c.point) < shatter_radius2(c, ps.volume[debris], grains=True)
     parents = debris[crushed & (ps.kind[debris] == KIND_PHYSICAL)]
     if parents.size == 0:
         return ps, debris

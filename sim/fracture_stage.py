@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from geometry.particles import ParticleSet
+from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
 
 # A piece breaks again only when it holds at least this many physical-particle volumes of its object:
@@ -335,7 +335,7 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
                               thickness=world.bodies[body].thickness)
         # the shatter zone belongs to the contact, not to the crossing
         source = f"{crack.source}.crossing.material{first.material}"
-        out += [replace(c, r_inner=0.0, r_crush=0.0, source=source) for c in more.cracks]
+        out += [replace(c, r_inner=0.0, r_crush=0.0, shatter=None, source=source) for c in more.cracks]
     return out
 
 
@@ -394,7 +394,7 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
         world.bodies[nb] = BodyInfo(info.object_index, info.breakable and big,
                                     bool(world.rigid.body_is_static(nb)), info.thickness, info.resolution, history,
                                     info.bounds)
-    edge = np.cbrt(6.0 * np.sqrt(2.0) * ps.volume[debris])  # regular tet of each freed particle's volume
+    edge = tet_edge(ps.volume[debris])  # regular tet of each freed particle's volume
     record.update(
         cracks=len(cracks), fragments=len(new_ids), debris=int(len(debris)), new_bodies=[int(b) for b in new_ids],
         # half the surface of every freed particle: each freed face is one side of a crack shared with a neighbour

@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.cutting import Crack
+from geometry.cutting import Crack, ShatterField
+from geometry.particles import tet_edge as tet_edges
 from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
 from sph.eigen import sym_eig3_np
 from sph.gradient import neighbour_pairs, sph_gradient
@@ -40,7 +41,7 @@ ISO_TOL = 1e-6  # relative difference of in-plane kernel lengths below which G_P
 
 def tet_edge(volume: float) -> float:
     """Edge (m) of the regular tet of this volume (m^3)."""
-    return float(np.cbrt(6.0 * math.sqrt(2.0) * volume))
+    return float(tet_edges(volume))
 
 
 def reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | None) -> np.ndarray:
@@ -115,7 +116,7 @@ def neighbourhood(x: np.ndarray, volume: np.ndarray, G: np.ndarray, P: np.ndarra
     if col.size:
         order_z = np.argsort(depth_all[col], kind="stable")
         zc = depth_all[col][order_z]
-        ec = np.cbrt(6.0 * math.sqrt(2.0) * volume[col][order_z])  # tet edges of the column
+        ec = tet_edges(volume[col][order_z])  # tet edges of the column
         gaps = np.flatnonzero(np.diff(zc) > 2.0 * np.maximum(ec[:-1], ec[1:]))
         z_far = float(zc[gaps[0]] if gaps.size else zc[-1])
         depth = z_far + r_near
@@ -374,24 +375,31 @@ def u_limit(Gc: float, edge: float, volume: float) -> float:
     return 0.5 * Gc * math.sqrt(3.0) * edge**2 / volume
 
 
+def shatter_level(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float, weight: float = 1.0) -> float:
+    """-: `level` of geometry.cutting.ShatterField (module doc step 8): the released energy U spread in
+    the material as u(r) = 315/(64 pi h^9)(h^2 - r^2)^3 U / weight (h = rho_P; `weight`:
+    `material_weight`) reaches the u_limit of a particle of edge e_near and volume V_near where
+    (h^2 - r^2) / h^2 = level = (64 pi h^9 u_limit weight / (315 U))^(1/3) / h^2; inf for U = 0."""
+    if not U_rel > 0.0:
+        return math.inf
+    u_lim = u_limit(Gc, e_near, V_near)
+    return (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0) / (rho * rho)
+
+
 def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float,
                    weight: float = 1.0) -> tuple[float, float]:
-    """U_limit (module doc step 8): the released energy U spread in the material as u(r) =
-    315/(64 pi h^9)(h^2 - r^2)^3 U / weight (h = rho_P; `weight`: `material_weight`, the share of the
-    kernel's integral that lies in the material) frees a particle where u exceeds u_limit =
-    G_c A_P / (2 V_P) (half its surface: each freed face is one side of a crack shared with a
-    neighbour). Returns (r_inner m, u_limit J/m^3); r_inner = 0 when u does not reach u_limit."""
-    u_lim = u_limit(Gc, e_near, V_near)
-    r_in = 0.0
-    if U_rel > 0.0:
-        X = (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0)
-        if X < rho * rho:
-            r_in = math.sqrt(rho * rho - X)
-    return r_in, u_lim
+    """U_limit (module doc step 8): a particle of edge e_near, volume V_near shatters where the
+    energy density u (see `shatter_level`) exceeds u_limit = G_c A_P / (2 V_P) (half its surface:
+    each freed face is one side of a crack shared with a neighbour). Returns (r_inner m, u_limit
+    J/m^3); r_inner = 0 when u does not reach u_limit."""
+    level = shatter_level(U_rel, rho, Gc, e_near, V_near, weight)
+    r_in = rho * math.sqrt(1.0 - level) if level < 1.0 else 0.0
+    return r_in, u_limit(Gc, e_near, V_near)
 
 
 def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
-                  r_out: np.ndarray, r_in: float, N: int, r_crush: float = 0.0) -> tuple[list[Crack], np.ndarray]:
+                  r_out: np.ndarray, r_in: float, N: int, r_crush: float = 0.0,
+                  shatter: ShatterField | None = None) -> tuple[list[Crack], np.ndarray]:
     """Step 6: a half-disc through P per fired group, with its crack normal, on the side of its
     bisector projected onto the crack plane (the inward normal if the bisector is within ~6 degrees
     of the crack normal); N = 1 gives a full disc. Returns (cracks, sides (N,3))."""
@@ -409,5 +417,5 @@ def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, f
         if side is not None:
             sides[k] = side
         cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, r_crush=r_crush,
-                            source=f"impact.group{k}"))
+                            shatter=shatter, source=f"impact.group{k}"))
     return cracks, sides

@@ -107,7 +107,11 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
     particle's volume (the level at which subdivision resolves a crack; u_limit ~ 1 / edge, so
     4^(1/3) u_limit), r_fine^2 = h^2 - 4^(1/9) (h^2 - r_inner^2); r_crush = max(r_plug, r_fine) is
     crushed into such grains in subdivision mode (geometry/pulverise.py), freed whole in basic mode.
-    Cracks carry r_inner only if at least one group fired. Why the onset energy and not the energy
+    Both radii are those of the particle nearest to P: every particle is freed (crushed) by its own
+    size, r_j^2 = h^2 (1 - level (e_near / e_j)^(1/3)) (geometry.cutting.ShatterField), so the small
+    children a crack left around P need the higher energy density their u_limit asks, and what a
+    blow frees never costs more than the energy it releases. Cracks carry the field, r_inner and
+    r_crush only if at least one group fired. Why the onset energy and not the energy
     at the peak force: docs/notes_cracks.md section 4.
 
 Validity: that of the contact models (sph/contact.py): linear elastic, small strain, quasi-static
@@ -124,7 +128,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.cutting import Crack
+from geometry.cutting import Crack, ShatterField
+from geometry.particles import tet_edge as tet_edges
 from geometry.pulverise import GRAINS_PER_PARTICLE
 from sph import algorithm1 as alg
 from sph.algorithm1 import tet_edge
@@ -409,18 +414,18 @@ def analyse_impact(
     K = 0.5 * hz.m_eff * impact.speed**2
     # the body's reach from P: its farthest particle's centroid plus that particle's tet edge, so a
     # crack clamped to it cuts the links and tets at the body's far end too (not only up to centroids)
-    L_body = float((np.sqrt(nb.dist2) + np.cbrt(6.0 * math.sqrt(2.0) * volume)).max())
+    L_body = float((np.sqrt(nb.dist2) + tet_edges(volume)).max())
     r_out, U_av = alg.crack_radii(gs["energy"], fired, K, hz.area, nb.e_near, Gc, B, nb.rho, L_body)
     U_sh = alg.onset_energy(float(U_av.sum()), float(peak.max(initial=0.0)) * F, sigma_t)
     U_sh, r_plug = _with_plug(U_sh, K, impact, wf, nb, fired, material)
     weight = alg.material_weight(nb.dist2, volume, nb.rho)
-    r_in, u_lim = alg.shatter_radius(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
-    r_in = max(r_in, r_plug)
-    # where the same energy frees grains of a quarter of the particle's volume (the level at which
-    # subdivision resolves a crack), subdivision mode crushes the particles into such grains
-    r_fine, _ = alg.shatter_radius(U_sh, nb.rho, Gc, *_grain(nb), weight)
-    r_crush = max(r_plug, r_fine)
-    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush)
+    # each particle is freed by its own u_limit (~ 1/edge), subdivision mode crushes it into quarter
+    # grains where those break free too; r_inner, r_crush: for the particle nearest to P
+    level = alg.shatter_level(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
+    shatter = ShatterField(support=nb.rho, level=min(level, 1e300), edge=nb.e_near, r_plug=r_plug)
+    r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
+    u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
+    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush, shatter)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
     return ImpactAnalysis(
         cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,

@@ -86,4 +86,6 @@ def stop_at_crossings(crack: Crack, crossings: list[MaterialCrossing]) -> Crack:
         return crack
     r = max(min(c.distance for c in crossings), 1e-12)
     r_inner = min(crack.r_inner, r)
-    return replace(crack, r_outer=min(crack.r_outer, r), r_inner=r_inner, r_crush=min(crack.r_crush, r_inner))
+    shatter = None if crack.shatter is None else replace(crack.shatter, cap=min(crack.shatter.cap, r))
+    return replace(crack, r_outer=min(crack.r_outer, r), r_inner=r_inner, r_crush=min(crack.r_crush, r_inner),
+                   shatter=shatter)

@@ -10,11 +10,11 @@ anisotropic beam from its full stiffness.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.particles import tet_edge
 from sph.structure import Beam
 
 STRUCTURAL_DEPTH = 0.25  # depth / longest in-plane size of the struck wall below which it bends (plate, beam)
@@ -99,7 +99,7 @@ def struck_wall(d: np.ndarray, depth: np.ndarray, volume: np.ndarray, n: np.ndar
     k = int(np.argmax(np.abs(a) - 1e-12 * np.arange(3)))
     a = -a if a[k] < 0.0 else a
     frame = np.stack([a, np.cross(n, a), n])
-    e = np.cbrt(6.0 * math.sqrt(2.0) * v)
+    e = tet_edge(v)
     length = float(np.ptp(q @ a)) + float(e.mean())
     width = float(np.ptp(q @ frame[1])) + float(e.mean())
     return StruckWall(x, v, x @ n, e, frame, length, width)

@@ -9,7 +9,10 @@ known answers:
 - the energy held at fracture onset scales as (sigma_t / T_peak)^2; the plugging loss is the energy
   a perfectly inelastic collision of striker and plug loses (momentum conserved);
 - the poly6 kernel's share inside a thin slab is its integral over the slab (scipy quadrature);
-- a pulverised plug conserves mass and volume, each tet giving four quarter tets inside it.
+- a pulverised plug conserves mass and volume, each tet giving four quarter tets inside it;
+- each particle is freed by its own size: where the poly6 energy density reaches its own u_limit
+  (~ 1 / edge), so the fracture energy of what a blow frees never exceeds the energy it releases,
+  however finely the struck region was subdivided.
 """
 
 from __future__ import annotations
@@ -233,3 +236,70 @@ def test_push_profile_is_the_fields_own_deflection_shape():
                                (l * l / R**3 + 2.0 * (1.0 - nu) / R) / ((3.0 - 2.0 * nu) / l), rtol=1e-9)
     with pytest.raises(ConfigError, match="push_profile.kind"):
         push_profile("beam", face, 7e10, nu, l)
+
+
+def _glass_pane_analysis(B: float = 0.008):
+    from sph.cracks import ImpactSpec, analyse_impact
+    from sph.kernel import kernel_isotropic
+    from sph.materials import Material, stiffness_isotropic
+
+    ps = build_object("pane", shape_params=dict(size=[0.3, 0.3, B]), resolution=0.01).particles
+    glass = Material("glass", 2500.0, stiffness_isotropic(7e10, 0.22), tensile_strength=4e7, toughness=8.0)
+    spec = ImpactSpec(point=[0.001, 0.002, 0.5 * B], normal=[0.0, 0.0, -1.0], speed=8.0, m1=float(ps.mass.sum()),
+                      R1=math.inf, m2=math.inf, R2=1.0, E2=2.1e11, nu2=0.3)
+    return ps, glass, analyse_impact(ps.centroid, ps.volume, kernel_isotropic(0.02), glass, spec, 4, B)
+
+
+def test_each_particle_is_freed_where_the_energy_density_reaches_its_own_limit(taichi_runtime):
+    """The crack's ShatterField gives every particle volume the radius where u(r) = 315/(64 pi h^9)
+    (h^2 - r^2)^3 U / w (computed here from the analysis' U, h and the kernel share w) equals that
+    particle's u_limit = G_c sqrt3 e^2 / (2 V): the nearest particle's is r_inner, a quarter grain's
+    r_crush; smaller particles need a higher density, so their radius is smaller."""
+    from sph.algorithm1 import tet_edge, u_limit
+
+    ps, glass, an = _glass_pane_analysis()
+    field = an.cracks[0].shatter
+    assert field is not None and all(c.shatter == field for c in an.cracks)
+    V_near = float(ps.volume[an.nearest])
+    assert field.radius(V_near) == pytest.approx(an.r_inner, rel=1e-12)
+    assert field.radius(V_near, grains=True) == pytest.approx(an.r_crush, rel=1e-12)
+    h = an.support_radius
+    w = material_weight(((ps.centroid - an.cracks[0].point) ** 2).sum(1), ps.volume, h)
+
+    def u(r: float) -> float:
+        return 315.0 / (64.0 * math.pi * h**9) * (h * h - r * r) ** 3 * an.shatter_energy / w
+
+    radii = []
+    for V in V_near * np.array([1.0 / 8.0, 0.5, 1.0, 2.0]):
+        r = field.radius(V)
+        assert 0.0 < r < h
+        assert u(r) == pytest.approx(u_limit(8.0, tet_edge(V), V), rel=1e-9)
+        radii.append(r)
+    assert np.all(np.diff(radii) > 0.0)
+
+
+def test_what_a_blow_frees_costs_no_more_than_the_energy_it_releases(taichi_runtime):
+    """A pane first cut and subdivided across the contact point (children of a quarter to a
+    twentieth of a tet lie around it), then shattered by the blow: each freed particle costs G_c
+    times half its surface, and the sum stays below the shatter energy U, because the density
+    exceeds each one's own u_limit where it is freed and the poly6 spread integrates to U over the
+    material. One radius for every size (the nearest particle's r_inner) would free the small
+    children too."""
+    from dataclasses import replace
+
+    from geometry.cutting import shatter_particles
+    from geometry.fragments import apply_cracks
+    from geometry.particles import tet_edge
+
+    ps, glass, an = _glass_pane_analysis()
+    P = an.cracks[0].point
+    cut = Crack(point=P + np.array([0.0, 0.0031, 0.0]), normal=[0.0, 1.0, 0.0], r_outer=0.1)
+    fine, _ = apply_cracks(ps, [cut], mode="subdivision", shatter=False)
+    fine = replace(fine, body=np.where(fine.alive, 0, -1))
+    near = np.linalg.norm(fine.centroid - P, axis=1) < an.r_inner
+    assert (near & fine.alive & (fine.kind == KIND_SUBDIVIDED)).sum() > 10  # children inside r_inner
+    _, freed = shatter_particles(fine, an.cracks[0], bodies=[0])
+    cost = 0.5 * 8.0 * math.sqrt(3.0) * tet_edge(fine.volume[freed]) ** 2
+    assert freed.size > 0 and cost.sum() < an.shatter_energy
+    _, by_radius = shatter_particles(fine, replace(an.cracks[0], shatter=None), bodies=[0])
+    assert set(freed) < set(by_radius)
