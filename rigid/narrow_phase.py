@@ -226,7 +226,7 @@ def contact_geometry(s: ti.template(), i, key, ba):
 
 
 @ti.kernel
-def k_setup(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float):
+def k_setup(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float, warm_depth: float):
     for c in range(nc):
         i = s.ct_a[c]
         key = s.ct_b[c]
@@ -268,7 +268,7 @@ def k_setup(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float):
         s.ct_e[c] = e
         ln = 0.0
         lt = vec3(0.0)
-        if use_warm == 1 and s.pc_valid[None] == 1:
+        if use_warm == 1 and s.pc_valid[None] == 1 and gap >= -warm_depth:  # a deep overlap starts from zero
             for q in range(s.bp_pc_start[i], s.bp_pc_start[i + 1]):
                 if s.pc_b[q] == key:
                     ln = warm_factor * s.pc_ln[q]

@@ -36,6 +36,11 @@ class RigidConfig:
     max_support_levels: int = 64  # -: stack depth up to which support levels are computed
     warm_start: bool = True  # reuse last step's impulses of contacts matched by (sphere, sphere) key
     warm_start_factor: float = 1.0  # -: fraction of the previous impulse reused
+    # m: a contact penetrating deeper than this starts from zero impulse: a deep overlap (pieces of a split
+    # whose spheres interlock across the crack) is being pushed apart by the position correction, and the
+    # impulses of its opposing contacts, which cancel, grew step after step when carried over (an unbounded
+    # drift that ended in a 200 m/s shard); resting contacts sink a few slops at most
+    warm_start_max_depth_m: float = 1.0e-3
     sleep_enabled: bool = True
     sleep_linear_speed_mps: float = 0.05  # m/s: below this (and the angular one) a body may sleep
     sleep_angular_speed_radps: float = 0.1  # rad/s
@@ -57,6 +62,7 @@ class RigidConfig:
         "max_travel_per_step": (0.0, 1e6),
         "max_rotation_per_step_rad": (1e-6, math.pi),
         "warm_start_factor": (0.0, 1.0),
+        "warm_start_max_depth_m": (0.0, 10.0),
         "max_support_levels": (0, 100000),
         "mass_ratio_cap": (0.0, 1e12),
         "sleep_linear_speed_mps": (0.0, 1e3),

@@ -110,7 +110,7 @@ def _step(world, dt: float) -> None:
     s = world._s
     nc = total
     narrow_phase.k_gather(s, ns, ncol, margin)  # 4-5
-    narrow_phase.k_setup(s, nc, int(cfg.warm_start), cfg.warm_start_factor)
+    narrow_phase.k_setup(s, nc, int(cfg.warm_start), cfg.warm_start_factor, cfg.warm_start_max_depth_m)
     h = dt / cfg.substeps
     if cfg.mass_ratio_cap > 0.0:  # 6
         solver.k_levels(s, nb, nc, cfg.max_support_levels)
