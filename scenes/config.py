@@ -160,6 +160,8 @@ class SceneSection:
                                     unit="rigid bodies ever made, fragments included (0 = from the particles)")
     sphere_capacity: int = spec_field("int", 0, lo=0, hi=2**26,
                                       unit="boundary spheres at once, crack faces included (0 = from the particles)")
+    contact_capacity: int = spec_field("int", 0, lo=0, hi=2**28,
+                                       unit="rigid contacts at once (0 = 4 per boundary sphere of the capacity)")
 
 
 @dataclass

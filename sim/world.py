@@ -234,7 +234,7 @@ class World:
         self.rigid = RigidWorld(
             capacity_bodies=bodies,
             capacity_spheres=spheres,
-            capacity_contacts=4 * spheres,  # fragments resting against each other touch at many spheres
+            capacity_contacts=sc.contact_capacity or 4 * spheres,  # pieces resting on each other touch at many spheres
             capacity_colliders=max(1, len(self.cfg.colliders)),
             config=RigidConfig(gravity=tuple(sc.gravity)),
             on_grow=self._rigid_grows,
@@ -265,7 +265,8 @@ class World:
 
     def _rigid_grows(self, kind: str, needed: int, capacity: int) -> None:
         """The rigid store is about to grow (its kernels compile again): say which option avoids it."""
-        option = {"bodies": "scene.body_capacity", "spheres": "scene.sphere_capacity"}.get(kind)
+        option = {"bodies": "scene.body_capacity", "spheres": "scene.sphere_capacity",
+                  "contacts": "scene.contact_capacity"}.get(kind)
         hint = f"; set {option} >= {2 * needed} in the scene (or --set) to avoid the pause" if option else ""
         print(f"note: frame {self.frame}: {needed} rigid {kind} exceed the store's {capacity}; it grows and its "
               f"kernels compile again{hint}", file=sys.stderr)

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from scenes.loader import load_scene
 from sim.world import World
 
@@ -73,21 +75,27 @@ def test_debris_store_only_with_the_debris_effect():
         w.release()
 
 
-def test_a_store_too_small_grows_and_names_the_scene_option(capsys):
-    """With scene.sphere_capacity below the scene's boundary spheres, the rigid store grows (the run
-    goes on, the same as with room) and the note names the option that avoids the pause."""
+@pytest.mark.parametrize("scene, option, kind, frames", [
+    ("glass_r3", "sphere_capacity", "spheres", 1),
+    ("rigid_pile", "contact_capacity", "contacts", 3),
+])
+def test_a_store_too_small_grows_and_names_the_scene_option(capsys, scene, option, kind, frames):
+    """With scene.sphere_capacity (contact_capacity) below the scene's boundary spheres (contacts), the
+    rigid store grows (the run goes on, the same as with room) and the note names the option that
+    avoids the pause."""
     from scenes.loader import load_scene
     from sim.guards import state_hash
     from sim.world import World
 
     hashes = []
-    for extra in ([], ["scene.sphere_capacity=1"]):
-        w = World(load_scene("glass_r3", ['scene.effects=["rigid"]', *extra]))
+    for extra in ([], [f"scene.{option}=1"]):
+        w = World(load_scene(scene, ['scene.effects=["rigid"]', *extra]))
         try:
-            w.step_frame()
+            for _ in range(frames):
+                w.step_frame()
             hashes.append((w.rigid.grow_count, state_hash(w)))
         finally:
             w.release()
     assert hashes[0][0] == 0 and hashes[1][0] >= 1 and hashes[0][1] == hashes[1][1]
     err = capsys.readouterr().err
-    assert "rigid spheres exceed the store's 16" in err and "scene.sphere_capacity >=" in err
+    assert f"rigid {kind} exceed the store's 16" in err and f"scene.{option} >=" in err
