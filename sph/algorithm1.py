@@ -14,7 +14,7 @@ vectorised over the analysed neighbourhood (tens to a few hundred particles).
     crack_radii        17 (Eq. 11) r_outer from the group energy and the contact area
     onset_energy       17          the energy held when the peak tension reaches the strength
     plug_energy        17          what a striker that perforates a wall leaves in it (Recht & Ipson)
-    shatter_radius     17          r_inner where the released energy exceeds U_limit
+    shatter_level      17          where the released energy exceeds U_limit (r_inner, per particle size)
     crack_regions      output      the half-disc crack of each fired group
 """
 
@@ -384,17 +384,6 @@ def shatter_level(U_rel: float, rho: float, Gc: float, e_near: float, V_near: fl
         return math.inf
     u_lim = u_limit(Gc, e_near, V_near)
     return (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0) / (rho * rho)
-
-
-def shatter_radius(U_rel: float, rho: float, Gc: float, e_near: float, V_near: float,
-                   weight: float = 1.0) -> tuple[float, float]:
-    """U_limit (module doc step 8): a particle of edge e_near, volume V_near shatters where the
-    energy density u (see `shatter_level`) exceeds u_limit = G_c A_P / (2 V_P) (half its surface:
-    each freed face is one side of a crack shared with a neighbour). Returns (r_inner m, u_limit
-    J/m^3); r_inner = 0 when u does not reach u_limit."""
-    level = shatter_level(U_rel, rho, Gc, e_near, V_near, weight)
-    r_in = rho * math.sqrt(1.0 - level) if level < 1.0 else 0.0
-    return r_in, u_limit(Gc, e_near, V_near)
 
 
 def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
