@@ -74,14 +74,14 @@ FIGURES = (
     Figure(10, "Pots are dropped and fractured into 117 fragments. The top two are sideview display and "
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
-           "A heap of shards of many sizes, as in the paper; our count (1,137 against 587) is mostly the "
+           "A heap of shards of many sizes, as in the paper; our count (636 against 587) is mostly the "
            "grains of crushed cores where shards strike each other. No zoom-in from above: the sheet keeps "
            "one camera per scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor (60 pieces "
+           "paper). The ball splits it where it lands and the parts break again on the floor (62 pieces "
            "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
            "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
@@ -89,8 +89,8 @@ FIGURES = (
            (Row("taichi", "white marble and black slate halves", "Tai Chi", 87),),
            "Black and white halves as in the paper; a crack that reaches the other material stops and "
            "restarts with that material's direction (the slate's cuts jagged, the marble's straight). The "
-           "disc lands on its rim and breaks into four large wedges and many small pieces: 42 against the "
-           "paper's 87."),
+           "disc lands on its rim; a wedge and slivers come off along the cracks from the contact, and most "
+           "of the disc stays whole: 36 pieces (4 large) against the paper's 87."),
 )
 
 
