@@ -42,7 +42,9 @@ def _vec3(value, key: str) -> np.ndarray:
     return a
 
 
-GRAIN_LEVEL = 4.0 ** (1.0 / 9.0)  # a quarter-volume grain's u_limit is 4^(1/3) higher: level x 4^(1/9) (see below)
+GRAINS_PER_PARTICLE = 4  # grains a crushed tet splits into (its centroid split, geometry/pulverise.py)
+# -: a grain's u_limit (~ 1 / edge) is GRAINS^(1/3) times its particle's, so its level is GRAINS^(1/9) times
+GRAIN_LEVEL = GRAINS_PER_PARTICLE ** (1.0 / 9.0)
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,7 @@ class ShatterField:
     (a crack stopped at another material)."""
 
     support: float  # m: h, the spread's support (the analysed kernel's radius)
-    level: float  # -: see above; >= 1 where the reference particle is not freed
+    level: float  # -: see above; >= 1 where the reference particle is not freed (inf: no energy)
     edge: float  # m: tet edge of the reference particle
     r_plug: float = 0.0  # m
     cap: float = math.inf  # m
@@ -67,8 +69,8 @@ class ShatterField:
     def __post_init__(self) -> None:
         for key in ("support", "level", "edge", "r_plug", "cap"):
             v = float(getattr(self, key))
-            if not (v >= 0.0 and not math.isnan(v)) or (key != "cap" and math.isinf(v)):
-                raise ConfigError(f"shatter.{key}", getattr(self, key), "a finite value >= 0")
+            if not (v >= 0.0 and not math.isnan(v)) or (key not in ("level", "cap") and math.isinf(v)):
+                raise ConfigError(f"shatter.{key}", getattr(self, key), "a value >= 0 (finite but level and cap)")
             object.__setattr__(self, key, v)
 
     def radius2(self, volume: np.ndarray, grains: bool = False) -> np.ndarray:
@@ -76,7 +78,7 @@ class ShatterField:
         `grains`, crushed into quarter grains)."""
         e = np.maximum(tet_edge(volume), 1e-300)
         level = self.level * (GRAIN_LEVEL if grains else 1.0) * np.cbrt(self.edge / e)
-        r2 = np.maximum(self.support**2 * (1.0 - level), self.r_plug**2)
+        r2 = np.maximum(self.support**2 * (1.0 - np.minimum(level, 1.0)), self.r_plug**2)
         return np.minimum(r2, self.cap**2)
 
     def radius(self, volume: float, grains: bool = False) -> float:

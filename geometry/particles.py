@@ -19,8 +19,9 @@ KIND_SUBDIVIDED = 1  # a child made by adaptive subdivision (Sect. 5.2)
 
 
 def tet_edge(volume):
-    """Edge (m) of the regular tet of each volume (m^3): scalar or array."""
-    return np.cbrt(6.0 * np.sqrt(2.0) * np.asarray(volume, dtype=np.float64))
+    """Edge (m) of the regular tet of each volume (m^3): a float for a scalar, else an array."""
+    e = np.cbrt(6.0 * np.sqrt(2.0) * np.asarray(volume, dtype=np.float64))
+    return float(e) if e.ndim == 0 else e
 
 
 @dataclass

@@ -16,11 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from geometry.cutting import Crack, shatter_radius2
+from geometry.cutting import GRAINS_PER_PARTICLE, Crack, shatter_radius2
 from geometry.particles import KIND_PHYSICAL, ParticleSet
 from geometry.subdivision import with_children
-
-GRAINS_PER_PARTICLE = 4  # a crushed tet's grains: its centroid split
 
 
 def centroid_split(verts: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 
 from core.errors import ConfigError
 from geometry.cutting import Crack, ShatterField
-from geometry.particles import tet_edge as tet_edges
+from geometry.particles import tet_edge
 from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
 from sph.eigen import sym_eig3_np
 from sph.gradient import neighbour_pairs, sph_gradient
@@ -37,11 +37,6 @@ from sph.structure import plate_energy
 
 SIDE_MIN = 0.1  # |side projection| below which the side falls back (angle to the normal < ~6 deg)
 ISO_TOL = 1e-6  # relative difference of in-plane kernel lengths below which G_P has no in-plane axis
-
-
-def tet_edge(volume: float) -> float:
-    """Edge (m) of the regular tet of this volume (m^3)."""
-    return float(tet_edges(volume))
 
 
 def reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | None) -> np.ndarray:
@@ -116,7 +111,7 @@ def neighbourhood(x: np.ndarray, volume: np.ndarray, G: np.ndarray, P: np.ndarra
     if col.size:
         order_z = np.argsort(depth_all[col], kind="stable")
         zc = depth_all[col][order_z]
-        ec = tet_edges(volume[col][order_z])  # tet edges of the column
+        ec = tet_edge(volume[col][order_z])  # tet edges of the column
         gaps = np.flatnonzero(np.diff(zc) > 2.0 * np.maximum(ec[:-1], ec[1:]))
         z_far = float(zc[gaps[0]] if gaps.size else zc[-1])
         depth = z_far + r_near

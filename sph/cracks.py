@@ -128,11 +128,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.cutting import Crack, ShatterField
-from geometry.particles import tet_edge as tet_edges
-from geometry.pulverise import GRAINS_PER_PARTICLE
+from geometry.cutting import GRAINS_PER_PARTICLE, Crack, ShatterField
+from geometry.particles import tet_edge
 from sph import algorithm1 as alg
-from sph.algorithm1 import tet_edge
 from sph.contact import HertzImpact, effective_isotropic, hertz_impact, hertz_threshold_speed, speed_for_force
 from sph.crossings import MaterialCrossing, material_crossings, stop_at_crossings
 from sph.gradient import CORRECTIONS, neighbour_pairs, sph_gradient
@@ -414,7 +412,7 @@ def analyse_impact(
     K = 0.5 * hz.m_eff * impact.speed**2
     # the body's reach from P: its farthest particle's centroid plus that particle's tet edge, so a
     # crack clamped to it cuts the links and tets at the body's far end too (not only up to centroids)
-    L_body = float((np.sqrt(nb.dist2) + tet_edges(volume)).max())
+    L_body = float((np.sqrt(nb.dist2) + tet_edge(volume)).max())
     r_out, U_av = alg.crack_radii(gs["energy"], fired, K, hz.area, nb.e_near, Gc, B, nb.rho, L_body)
     U_sh = alg.onset_energy(float(U_av.sum()), float(peak.max(initial=0.0)) * F, sigma_t)
     U_sh, r_plug = _with_plug(U_sh, K, impact, wf, nb, fired, material)
@@ -422,7 +420,7 @@ def analyse_impact(
     # each particle is freed by its own u_limit (~ 1/edge), subdivision mode crushes it into quarter
     # grains where those break free too; r_inner, r_crush: for the particle nearest to P
     level = alg.shatter_level(U_sh, nb.rho, Gc, nb.e_near, nb.V_near, weight)
-    shatter = ShatterField(support=nb.rho, level=min(level, 1e300), edge=nb.e_near, r_plug=r_plug)
+    shatter = ShatterField(support=nb.rho, level=level, edge=nb.e_near, r_plug=r_plug)
     r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
     u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
     cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush, shatter)

@@ -125,7 +125,7 @@ def test_a_crack_changes_direction_in_the_other_material():
             # (sph.crossings): within a tet size of the point, not necessarily its nearest centroid
             dist = np.linalg.norm(ps.centroid - c.point, axis=1)
             assert dist[ps.material == 1].min() < raw["objects"][0]["resolution"]
-            assert c.r_inner == 0.0 and c.r_crush == 0.0
+            assert c.r_inner == 0.0 and c.r_crush == 0.0 and c.shatter is None
             parent = next(s for s in stopped if c.source.startswith(s.source + "."))
             turned.append(math.degrees(math.acos(min(1.0, abs(float(c.normal @ parent.normal))))))
             # the stopped crack ends at the crossing, which lies on its plane

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from geometry.build import build_object
-from geometry.cutting import Crack
+from geometry.cutting import Crack, ShatterField
 from sph.cracks import material_crossings, stop_at_crossings
 
 
@@ -39,6 +39,12 @@ def test_half_disc_towards_the_interface_finds_it(two_material_plate):
                                        r_inner=r_inner, r_crush=r_crush, source="c"), found)
         assert zone.r_inner == pytest.approx(min(r_inner, first.distance))
         assert zone.r_crush == pytest.approx(min(r_crush, zone.r_inner)) and zone.source == "c"
+    # a shatter field (each particle by its size) is capped there too: no particle beyond it is freed
+    field = ShatterField(support=0.5, level=0.01, edge=0.01)
+    capped = stop_at_crossings(Crack(point=crack.point, normal=crack.normal, r_outer=0.2, side=crack.side,
+                                     r_inner=0.3, shatter=field), found).shatter
+    assert capped.cap == pytest.approx(first.distance)
+    assert capped.radius(1e-3) == pytest.approx(first.distance) and first.distance < field.radius(1e-3)
 
 
 def test_half_disc_away_from_the_interface_finds_nothing(two_material_plate):
