@@ -98,12 +98,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         from bench.bench_scenes import main as scenes_main
 
         return scenes_main((["--only", args.only] if args.only else []) + (["--readme"] if args.readme else [])
-                           + (["--frames", str(args.frames)] if args.frames else []))
+                           + (["--frames", str(args.frames)] if args.frames else [])
+                           + (["--arch", args.arch] if args.arch else []))
     if args.only or args.readme or args.frames:
         raise ConfigError("bench", "--only/--readme/--frames", "options of `bench --scenes`")
     from bench.report import main as bench_main
 
-    return bench_main(["--quick"] if args.quick else [])
+    return bench_main((["--quick"] if args.quick else []) + (["--arch", args.arch] if args.arch else []))
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -282,6 +283,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--only", default=None, help="with --scenes: comma-separated scenes")
     b.add_argument("--frames", type=int, default=None, help="with --scenes: frames per run")
     b.add_argument("--readme", action="store_true", help="with --scenes: write the table into README.md")
+    b.add_argument("--arch", default=None, choices=["cpu", "cuda", "auto"],
+                   help="backend: with --scenes cpu (default) or cuda; the study adds CUDA rows by default (auto) "
+                   "when a device is present")
     b.set_defaults(func=_cmd_bench)
     return p
 

@@ -53,10 +53,10 @@ COUNTS_BEGIN = "<!-- bench --scenes counts: begin -->"
 COUNTS_END = "<!-- bench --scenes counts: end -->"
 
 
-def run_scene(scene: str, drawn: bool, frames: int | None, out: Path) -> dict:
+def run_scene(scene: str, drawn: bool, frames: int | None, out: Path, arch: str = "cpu") -> dict:
     """One `main.py run` process; returns its stats.json with the launch time and the peak memory."""
     cmd = [sys.executable, str(ROOT / "main.py"), "run", scene, "--out", str(out), "--overwrite",
-           "--no-progress", "--video", "none"]
+           "--no-progress", "--video", "none", "--arch", arch]
     if not drawn:
         cmd += ["--renderer", "none"]
     if frames:
@@ -111,7 +111,7 @@ def summarise(scene: str, drawn: dict, bare: dict) -> dict:
     )
 
 
-def machine() -> str:
+def machine(arch: str = "cpu") -> str:
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -120,8 +120,13 @@ def machine() -> str:
                 break
     except OSError:
         pass
+    backend = "CPU backend, 1 thread"
+    if arch == "cuda":
+        from core.runtime import cuda_device_name
+
+        backend = f"CUDA backend on {cuda_device_name()}"
     return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()} "
-            f"{platform.release()}; CPU backend, f32, 1 thread, default size and renderer")
+            f"{platform.release()}; {backend}, f32, default size and renderer")
 
 
 def _f(x, fmt: str = "{:.1f}") -> str:
@@ -174,7 +179,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--only", default=",".join(SCENES), help="comma-separated scenes (default: every paper scene)")
     p.add_argument("--frames", type=int, default=None, help="frames per run (default: the scene's, until settled)")
     p.add_argument("--readme", action="store_true", help="also write the table into README.md")
+    p.add_argument("--arch", default="cpu", choices=["cpu", "cuda", "auto"],
+                   help="Taichi backend of the runs (default cpu; auto: cuda where a device is present)")
     args = p.parse_args(argv)
+    from core.runtime import cuda_available
+
+    if args.arch == "auto":
+        args.arch = "cuda" if cuda_available() else "cpu"
+    if args.arch == "cuda" and not cuda_available():
+        print("error: --arch cuda: no CUDA device is available on this machine", file=sys.stderr)
+        return 2
+    if args.readme and args.arch != "cpu":
+        print("error: --readme writes the README's CPU table; run it with --arch cpu", file=sys.stderr)
+        return 2
     scenes = [s.strip() for s in args.only.split(",") if s.strip()]
     unknown = [s for s in scenes if s not in PAPER_TABLE2]
     if unknown:
@@ -184,11 +201,11 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_scenes_") as tmp:
         for scene in scenes:
             print(f"{scene}: drawn ...", file=sys.stderr, flush=True)
-            drawn = run_scene(scene, True, args.frames, Path(tmp) / f"{scene}_drawn")
+            drawn = run_scene(scene, True, args.frames, Path(tmp) / f"{scene}_drawn", args.arch)
             print(f"{scene}: not drawn ...", file=sys.stderr, flush=True)
-            bare = run_scene(scene, False, args.frames, Path(tmp) / f"{scene}_bare")
+            bare = run_scene(scene, False, args.frames, Path(tmp) / f"{scene}_bare", args.arch)
             rows.append(summarise(scene, drawn, bare))
-    text = (f"Measured by `python main.py bench --scenes` on {time.strftime('%Y-%m-%d')}: {machine()}. "
+    text = (f"Measured by `python main.py bench --scenes` on {time.strftime('%Y-%m-%d')}: {machine(args.arch)}. "
             "Paper: Xeon W3530 + GTX 760 (Table 2; its frame rate counts no drawing).\n\n" + table(rows))
     counts = counts_table(rows)
     print(text + "\n\n" + counts)

@@ -31,6 +31,12 @@ class RuntimeInfo:
 
 _runtime: RuntimeInfo | None = None
 
+# Taichi 1.7.4's CUDA backend aborts the process on f64 kernels that use the anisotropic kernel's
+# local matrices (CUDA_ERROR_MISALIGNED_ADDRESS, then std::terminate; measured on an H200, docs/decisions.md
+# "CUDA and f64"); f32 runs there give the CPU's results.
+CUDA_F64_REFUSED = ("--precision f64 with --arch cuda: Taichi 1.7.4 aborts on this project's f64 kernels on CUDA "
+                    "(misaligned address); use --precision f32 on CUDA, or f64 on the CPU")
+
 
 def cuda_available() -> bool:
     """True when a CUDA driver and device can be opened (checked without initialising Taichi)."""
@@ -46,7 +52,7 @@ def cuda_available() -> bool:
     return count.value > 0
 
 
-def _cuda_device_name() -> str:
+def cuda_device_name() -> str:
     import ctypes
 
     try:
@@ -77,7 +83,8 @@ def init_taichi(
 ) -> RuntimeInfo:
     """Start Taichi once. A second call with the same settings is a no-op; other settings raise.
 
-    arch: "cpu", "cuda" or "auto" (CUDA when a device is present, else CPU). Vulkan is never
+    arch: "cpu", "cuda" or "auto" (CUDA when a device is present and precision is f32, else CPU;
+    f64 on CUDA is refused: CUDA_F64_REFUSED). Vulkan is never
     picked for compute: on a machine without a GPU it is a slow software device (TAICHI_NOTES).
     threads: CPU threads; 1 makes float atomics, hence whole runs, bitwise reproducible.
     """
@@ -86,10 +93,12 @@ def init_taichi(
         raise ConfigError("--precision", precision, " or ".join(PRECISIONS))
     if arch not in ARCHES:
         raise ConfigError("--arch", arch, ", ".join(ARCHES))
-    if arch == "auto":
-        arch = "cuda" if cuda_available() else "cpu"
+    if arch == "auto":  # f64 stays on the CPU (CUDA_F64_REFUSED)
+        arch = "cuda" if precision == "f32" and cuda_available() else "cpu"
     if arch == "cuda" and not cuda_available():
         raise BackendError("--arch cuda was requested but no CUDA device is available on this machine")
+    if arch == "cuda" and precision == "f64":
+        raise BackendError(CUDA_F64_REFUSED)
     wanted = (arch, precision, threads)
     if _runtime is not None:
         if (_runtime.arch, _runtime.precision, _runtime.threads) != wanted:
@@ -114,7 +123,7 @@ def init_taichi(
     )
     if arch == "cuda":
         ti.init(arch=ti.cuda, enable_fallback=False, **kwargs)
-        device = _cuda_device_name()
+        device = cuda_device_name()
     else:
         if threads > 0:
             kwargs["cpu_max_num_threads"] = threads

@@ -55,3 +55,14 @@ def test_readme_table_is_replaced_between_its_markers_only(tmp_path):
 def test_unknown_scene_is_refused_in_one_line(capsys):
     assert bs.main(["--only", "pot,nope"]) == 2
     assert "--only nope: not a paper scene" in capsys.readouterr().err
+
+
+def test_cuda_without_a_device_and_a_cuda_readme_are_refused(capsys, monkeypatch):
+    import core.runtime
+
+    monkeypatch.setattr(core.runtime, "cuda_available", lambda: False)
+    assert bs.main(["--only", "pot", "--arch", "cuda"]) == 2
+    assert "no CUDA device" in capsys.readouterr().err
+    monkeypatch.setattr(core.runtime, "cuda_available", lambda: True)
+    assert bs.main(["--only", "pot", "--arch", "cuda", "--readme"]) == 2
+    assert "README's CPU table" in capsys.readouterr().err
