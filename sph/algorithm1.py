@@ -334,6 +334,67 @@ def crack_radii(U_g: np.ndarray, fired: np.ndarray, K: float, area: float, e_nea
     return r_out, U_av
 
 
+ARREST_LENGTHS = 48  # crack lengths sampled from the regularisation length to the body's reach
+ARREST_DEPTHS = 5  # depths through the wall at which the crack front's opening stress is read
+
+
+def stress_intensity(a: np.ndarray, opening: np.ndarray) -> np.ndarray:
+    """(L,) Pa m^0.5: K(a_j) = 2 sqrt(a_j / pi) int_0^a_j sigma(x) / sqrt(a_j^2 - x^2) dx for cracks of
+    lengths a (ascending, m) opened by the stress sigma (Pa) given at the same distances: the weight
+    function of a crack under symmetric loading (Tada, Paris and Irwin, The Stress Analysis of Cracks
+    Handbook; sigma sqrt(pi a) for a uniform stress). sigma is taken constant on each interval between
+    the distances (their mean; sigma(a_0) on [0, a_0]), where the weight integrates exactly to the
+    difference of arcsin(x / a_j), so a stress concentrated near the crack's start is not missed."""
+    edges = np.concatenate([[0.0], a])
+    mean = np.concatenate([[opening[0]], 0.5 * (opening[1:] + opening[:-1])])
+    arc = np.arcsin(np.minimum(edges[None, :] / a[:, None], 1.0))
+    return 2.0 * np.sqrt(a / math.pi) * (np.diff(arc, axis=1) @ mean)
+
+
+def arrest_lengths(wf: WallField, nb: Neighbourhood, C: np.ndarray, E1: float, nu1: float, ell: float,
+                   Pi: np.ndarray, pdirs: np.ndarray, sides: np.ndarray, fired: np.ndarray, F: float, Gc: float,
+                   L_body: float) -> np.ndarray:
+    """Step 7 of the module doc of sph/cracks.py, (N,) m: how far each fired crack runs before linear
+    elastic fracture mechanics arrests it. Along its side in its plane, the contact field at force F
+    opens it with sigma(x) = m_k . sigma . m_k (tension only; the largest through the wall, plane
+    stress applied); a crack of length a then has K(a) = 2 sqrt(a / pi) int_0^a sigma(x) / sqrt(a^2 - x^2) dx
+    (`stress_intensity`: sigma sqrt(pi a) for a uniform stress). It
+    runs while K >= K_Ic = sqrt(E_m G_c) (E_m: Young's modulus across the crack plane, plane stress)
+    and stops at the first length where K falls below. 0 where K(ell) < K_Ic or the group did not fire;
+    the body's reach L_body where it never falls below."""
+    out = np.zeros(len(fired))
+    if not np.any(fired) or not F > 0.0 or not L_body > ell:
+        return out
+    a = np.geomspace(ell, L_body, ARREST_LENGTHS)
+    depths = np.linspace(0.0, max(nb.z_far, 0.0), ARREST_DEPTHS)
+    n = nb.frame[2]
+    for k in np.flatnonzero(fired):
+        m = pdirs[k]
+        s = sides[k]
+        if not np.any(s):  # a full disc: along the wall's tangent in the crack plane
+            s = nb.frame[0] - np.dot(nb.frame[0], m) * m
+            s = s if np.linalg.norm(s) >= SIDE_MIN else nb.frame[1] - np.dot(nb.frame[1], m) * m
+            s = s / np.linalg.norm(s)
+        d = (a[:, None, None] * s + depths[None, :, None] * n).reshape(-1, 3)
+        grad = _field_gradient(wf, nb.wall, d, nb.frame, E1, nu1, ell)
+        sig = Pi @ stress_from_voigt(strain_to_voigt(0.5 * (grad + np.swapaxes(grad, 1, 2))) @ C.T) @ Pi
+        opening = F * np.einsum("i,mij,j->m", m, sig, m).reshape(a.size, depths.size).max(axis=1)
+        K_a = stress_intensity(a, np.maximum(opening, 0.0))
+        below = np.flatnonzero(K_a < math.sqrt(E_along(C, m) * Gc))
+        out[k] = a[-1] if below.size == 0 else (a[below[0] - 1] if below[0] > 0 else 0.0)
+    return out
+
+
+def run_lengths(r_eq11: np.ndarray, arrest: np.ndarray, U_av: np.ndarray, fired: np.ndarray, Gc: float, B: float,
+                rho: float, L_body: float) -> np.ndarray:
+    """(N,) m: r_outer = max(Eq. 11, the arrest length within the energy bound U'_g / (G_c B)), clamped
+    to [rho_P, L_body] (sph/cracks.py step 7): Eq. 11 weighs the energy by the contact area, which
+    leaves a light landing's crack shorter than a kernel; the fracture-mechanics length lets a crack
+    that the field keeps driving run on, as long as the group's energy pays for its surface."""
+    run = np.minimum(arrest, U_av / (Gc * B))
+    return np.where(fired, np.clip(np.maximum(r_eq11, run), rho, max(L_body, rho)), 0.0)
+
+
 def onset_energy(U_av: float, peak_tension: float, sigma_t: float) -> float:
     """J: the elastic energy the analysed neighbourhood holds when its peak tension reaches the
     strength (module doc of sph/cracks.py, step 8): the field is linear in F, so its energy scales as

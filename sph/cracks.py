@@ -82,7 +82,13 @@ is sph/gradient.py, cracks that reach another material are sph/crossings.py. The
     centroid plus its tet edge (the body's reach: a crack clamped to it severs the far end too).
     U'_g = U_g min(1, K / sum_g U_g), K = 1/2 m* v^2: the quasi-static field cannot store more than
     the kinetic energy the impact brings (the Hertz force assumes a rigid backing; a compliant body
-    takes less). Particle geometry is that of a regular tet of the particle's volume V:
+    takes less). Beyond the paper: the crack also runs as far as linear elastic fracture mechanics
+    drives it (`arrest_lengths`): along its side, the field's opening stress at force F gives
+    K(a) = 2 sqrt(a/pi) int_0^a sigma(x) / sqrt(a^2 - x^2) dx, and the crack stops where K < K_Ic =
+    sqrt(E_m G_c); r_outer = max(Eq. 11, min(arrest length, U'_g / (G_c B))). The weight S/S_ref
+    leaves a light landing's crack shorter than a kernel although the bending field keeps K above
+    K_Ic over the whole shard (docs/decisions.md, "Crack arrest"). Particle geometry is that of a
+    regular tet of the particle's volume V:
     edge e = (6 sqrt2 V)^(1/3), face area sqrt3/4 e^2.
  8. U_limit, r_inner (Sect. 4.2, read with the poly6 kernel's cube). The energy that shatters:
     - the elastic energy the neighbourhood holds when its peak tension reaches the strength,
@@ -123,7 +129,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -218,6 +224,7 @@ class ImpactAnalysis:
     energy_available: np.ndarray  # (N,) J: U'_g (capped by the impact's kinetic energy)
     fired: np.ndarray  # (N,) bool: Rankine criterion met
     r_outer: np.ndarray  # (N,) m: crack radius (0 where not fired)
+    arrest_length: np.ndarray  # (N,) m: where fracture mechanics stops the crack (step 7; 0: not fired)
     side: np.ndarray  # (N,3): half-disc side (zeros for a full disc or no crack)
     r_inner: float  # m: shatter radius (U_limit); attached to the cracks only when one fired
     shatter_energy: float  # J: the energy spread by U_limit (onset energy plus a plug's, step 8)
@@ -260,6 +267,7 @@ class ImpactAnalysis:
                     "energy_available": float(self.energy_available[k]),
                     "fired": bool(self.fired[k]),
                     "r_outer": float(self.r_outer[k]),
+                    "arrest_length": float(self.arrest_length[k]),
                 }
                 for k in range(len(self.members))
             ],
@@ -424,6 +432,9 @@ def analyse_impact(
     r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
     u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
     cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush, shatter)
+    arrest = alg.arrest_lengths(wf, nb, C, E1, nu1, ell, Pi, pdirs, sides, fired, F, Gc, L_body)
+    r_out = alg.run_lengths(r_out, arrest, U_av, fired, Gc, B, nb.rho, L_body)
+    cracks = [replace(c, r_outer=float(r)) for c, r in zip(cracks, r_out[fired])]
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
     return ImpactAnalysis(
         cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,
@@ -432,8 +443,8 @@ def analyse_impact(
         pairs=int(owner.size), group=gr.group, theta=gr.theta, bisector=gr.bisector, members=gr.count,
         grad_u=gs["grad_u"], strain=gs["strain"], stress=gs["stress"], tension=gs["tension_per_newton"] * F,
         principal_stress=pvals, principal_dir=pdirs, tension_per_newton=peak, energy=gs["energy"],
-        energy_available=U_av, fired=fired, r_outer=r_out, side=sides, r_inner=r_in, u_limit=u_lim,
-        shatter_energy=U_sh, r_plug=r_plug, r_crush=r_crush,
+        energy_available=U_av, fired=fired, r_outer=r_out, arrest_length=arrest, side=sides, r_inner=r_in,
+        u_limit=u_lim, shatter_energy=U_sh, r_plug=r_plug, r_crush=r_crush,
         kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim,
     )
 

@@ -199,7 +199,9 @@ def test_thick_block_gets_cone_facets():
 
 
 def test_r_outer_grows_with_speed_and_shrinks_with_toughness(pane):
-    tough = glass(toughness=8.0)  # soda-lime glass: G_c = K_Ic^2 / E = (0.75 MPa m^0.5)^2 / 70 GPa
+    """A tough material (G_c 100 J/m^2): the bending field drives each crack through the pane
+    (sph.algorithm1.arrest_lengths), and the group's energy, U'_g / (G_c B), sets how far it gets."""
+    tough = glass(toughness=100.0)
     v_th = threshold_speed(*analyse(pane, 1.0, material=tough))
     speeds = [1.5 * v_th, 1.75 * v_th, 2.0 * v_th]
     runs = [analyse(pane, v, material=tough)[0] for v in speeds]
@@ -207,10 +209,13 @@ def test_r_outer_grows_with_speed_and_shrinks_with_toughness(pane):
         assert an.fired.all()
         assert np.all(an.r_outer > an.support_radius)  # not clamped below
         assert np.all(an.r_outer < 0.2)  # nor above
+        assert np.all(an.arrest_length > an.r_outer)
+        assert np.allclose(an.r_outer, an.energy_available / (100.0 * THICK), rtol=1e-12)
     r = np.array([an.r_outer for an in runs])
     assert np.all(np.diff(r, axis=0) > 0.0)
-    tougher = analyse(pane, 1.75 * v_th, material=glass(toughness=16.0))[0]
+    tougher = analyse(pane, 1.75 * v_th, material=glass(toughness=200.0))[0]
     assert np.all(tougher.r_outer > tougher.support_radius)
+    assert np.all(tougher.arrest_length > tougher.r_outer)
     assert np.allclose(tougher.r_outer, 0.5 * runs[1].r_outer, rtol=1e-12)  # r_outer ~ 1 / G_c
 
 
