@@ -357,11 +357,10 @@ def arrest_lengths(wf: WallField, nb: Neighbourhood, C: np.ndarray, E1: float, n
     """Step 7 of the module doc of sph/cracks.py, (N,) m: how far each fired crack runs before linear
     elastic fracture mechanics arrests it. Along its side in its plane, the contact field at force F
     opens it with sigma(x) = m_k . sigma . m_k (tension only; the largest through the wall, plane
-    stress applied); a crack of length a then has K(a) = 2 sqrt(a / pi) int_0^a sigma(x) / sqrt(a^2 - x^2) dx
-    (`stress_intensity`: sigma sqrt(pi a) for a uniform stress). It
-    runs while K >= K_Ic = sqrt(E_m G_c) (E_m: Young's modulus across the crack plane, plane stress)
-    and stops at the first length where K falls below. 0 where K(ell) < K_Ic or the group did not fire;
-    the body's reach L_body where it never falls below."""
+    stress applied), which gives a crack of length a its stress intensity K(a) (`stress_intensity`).
+    It runs while K >= K_Ic = sqrt(E_m G_c) (E_m: Young's modulus across the crack plane, plane
+    stress) and stops at the first length where K falls below. 0 where K(ell) < K_Ic or the group did
+    not fire; the body's reach L_body where it never falls below."""
     out = np.zeros(len(fired))
     if not np.any(fired) or not F > 0.0 or not L_body > ell:
         return out
