@@ -182,10 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--arch", default="cpu", choices=["cpu", "cuda", "auto"],
                    help="Taichi backend of the runs (default cpu; auto: cuda where a device is present)")
     args = p.parse_args(argv)
-    from core.runtime import cuda_available
+    from core.runtime import cuda_available, resolve_arch
 
-    if args.arch == "auto":
-        args.arch = "cuda" if cuda_available() else "cpu"
+    args.arch = resolve_arch(args.arch)
     if args.arch == "cuda" and not cuda_available():
         print("error: --arch cuda: no CUDA device is available on this machine", file=sys.stderr)
         return 2

@@ -67,6 +67,14 @@ def cuda_device_name() -> str:
         return "CUDA device"
 
 
+def resolve_arch(arch: str, precision: str = "f32") -> str:
+    """The backend an `arch` of "cpu", "cuda" or "auto" runs on: auto is CUDA where a device is present
+    and the precision is f32 (f64 stays on the CPU: CUDA_F64_REFUSED), else the CPU."""
+    if arch == "auto":
+        return "cuda" if precision == "f32" and cuda_available() else "cpu"
+    return arch
+
+
 def _cpu_name() -> str:
     try:
         with open("/proc/cpuinfo") as f:
@@ -93,8 +101,7 @@ def init_taichi(
         raise ConfigError("--precision", precision, " or ".join(PRECISIONS))
     if arch not in ARCHES:
         raise ConfigError("--arch", arch, ", ".join(ARCHES))
-    if arch == "auto":  # f64 stays on the CPU (CUDA_F64_REFUSED)
-        arch = "cuda" if precision == "f32" and cuda_available() else "cpu"
+    arch = resolve_arch(arch, precision)
     if arch == "cuda" and not cuda_available():
         raise BackendError("--arch cuda was requested but no CUDA device is available on this machine")
     if arch == "cuda" and precision == "f64":

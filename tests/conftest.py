@@ -32,14 +32,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     import tempfile
 
-    from core.runtime import cuda_available, init_taichi
+    from core.runtime import init_taichi, resolve_arch
     from geometry.mesh_cache import CACHE_ENV
 
     # the tet cache of this session (its subprocesses inherit it): no test reads a user's cache
     os.environ[CACHE_ENV] = tempfile.mkdtemp(prefix="anisofrac-test-cache-")
 
-    arch = config.getoption("--arch")
-    on_cuda = arch == "cuda" or (arch == "auto" and cuda_available())
+    on_cuda = resolve_arch(config.getoption("--arch")) == "cuda"
     info = init_taichi(arch="cuda" if on_cuda else "cpu", precision="f32" if on_cuda else "f64", threads=1)
     config._anisofrac_runtime = info  # type: ignore[attr-defined]
 

@@ -18,7 +18,12 @@ from geometry.fragments import apply_cracks
 from geometry.particles import tet_edge
 from sph.algorithm1 import stress_intensity
 from sph.cracks import threshold_speed
-from tests.unit.test_crack_scheme import THICK, analyse, glass, pane  # noqa: F401  (pane: a fixture)
+from tests.unit.test_crack_scheme import THICK, analyse, build_pane, glass
+
+
+@pytest.fixture(scope="module")
+def pane():
+    return build_pane()
 
 
 def test_uniform_stress_gives_sigma_sqrt_pi_a():
@@ -39,7 +44,7 @@ def test_stress_on_the_first_part_of_the_crack():
     assert np.all(np.diff(K[far]) < 0.0)  # beyond the loaded part K falls: such a crack arrests
 
 
-def test_the_force_that_drives_a_crack_scales_with_the_toughness(pane):  # noqa: F811
+def test_the_force_that_drives_a_crack_scales_with_the_toughness(pane):
     """K is linear in the contact force, so a crack runs (arrest length > 0) from the force at which
     K reaches K_Ic = sqrt(E G_c): four times the toughness G_c needs twice the force."""
 
@@ -58,7 +63,7 @@ def test_the_force_that_drives_a_crack_scales_with_the_toughness(pane):  # noqa:
     assert F4 / F1 == pytest.approx(2.0, rel=1e-4)
 
 
-def test_a_bent_glass_pane_breaks_to_its_edge(pane):  # noqa: F811
+def test_a_bent_glass_pane_breaks_to_its_edge(pane):
     """Soda-lime glass (G_c 8 J/m^2) struck at 1.5x its threshold: Eq. 11 alone (its energy weighted by
     the contact area over a tet face) would stop each crack within the pane, but the plate's bending
     keeps K above K_Ic, so each crack runs to the pane's reach (the energy U'_g / (G_c B) pays for

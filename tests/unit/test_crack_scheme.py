@@ -40,10 +40,14 @@ def glass(sigma_t: float = SIGMA_T, toughness: float = 10.0, scale_E: float = 1.
                     toughness=toughness)
 
 
+def build_pane():
+    """The test plate of this module's doc (tests/unit/test_crack_arrest.py uses it too)."""
+    return build_object("pane", shape_params=dict(size=[0.3, 0.3, THICK]), resolution=RES)
+
+
 @pytest.fixture(scope="module")
 def pane():
-    obj = build_object("pane", shape_params=dict(size=[0.3, 0.3, THICK]), resolution=RES)
-    return obj
+    return build_pane()
 
 
 def impact(pane, speed: float, reference=(1.0, 0.0, 0.0), **kw) -> ImpactSpec:

@@ -22,3 +22,11 @@ def test_f64_on_the_cpu_and_f32_on_cuda_are_not_refused(monkeypatch):
     assert rt.init_taichi(arch="auto", precision="f64", threads=info.threads) is info  # auto keeps f64 on the CPU
     with pytest.raises(BackendError, match="already runs with"):  # refused only for being a second backend
         rt.init_taichi(arch="cuda", precision="f32")
+
+
+@pytest.mark.parametrize("device", [True, False])
+def test_auto_picks_cuda_only_for_f32_on_a_device(monkeypatch, device):
+    monkeypatch.setattr(rt, "cuda_available", lambda: device)
+    assert rt.resolve_arch("auto", "f32") == ("cuda" if device else "cpu")
+    assert rt.resolve_arch("auto", "f64") == "cpu"
+    assert rt.resolve_arch("cpu", "f32") == "cpu" and rt.resolve_arch("cuda", "f64") == "cuda"  # explicit: kept
