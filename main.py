@@ -21,15 +21,21 @@ DEFAULT_OBJECT = "pot"
 DEFAULT_SCENE = "pot"
 
 
-def _init(args: argparse.Namespace) -> None:
+def _check_threads(args: argparse.Namespace) -> None:
+    """--threads within 1..cores, checked before anything imports Taichi (a refusal costs no start-up)."""
     import os
 
     from core.errors import ConfigError
-    from core.runtime import init_taichi
 
     cores = os.cpu_count() or 1
     if not 1 <= args.threads <= cores:
         raise ConfigError("--threads", args.threads, f"an integer from 1 to {cores} (this machine's cores)")
+
+
+def _init(args: argparse.Namespace) -> None:
+    from core.runtime import init_taichi
+
+    _check_threads(args)
     info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
     print(f"taichi: arch={info.arch} precision={info.precision} device={info.device}", file=sys.stderr)
 
@@ -296,6 +302,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         args = parser.parse_args(["run", DEFAULT_SCENE])
     try:
+        if hasattr(args, "threads"):
+            _check_threads(args)
         return args.func(args)
     except SandboxError as exc:
         print(f"error: {exc}", file=sys.stderr)

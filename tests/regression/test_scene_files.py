@@ -144,6 +144,8 @@ def test_command_line_errors_are_clear(tmp_path):
         r = subprocess.run([sys.executable, "main.py", *args], cwd=ROOT, capture_output=True, text=True, timeout=120)
         assert r.returncode == 2, (args, r.stderr)
         assert needle in r.stderr and "Traceback" not in r.stderr, r.stderr
+        if "--threads" in args:  # refused before Taichi is imported (its banner would be on stdout)
+            assert "[Taichi]" not in r.stdout + r.stderr, r.stdout
     assert not (tmp_path / "b").exists() and not (tmp_path / "c").exists()
 
 
