@@ -15,6 +15,8 @@ vectorised over the analysed neighbourhood (tens to a few hundred particles).
     onset_energy       17          the energy held when the peak tension reaches the strength
     plug_energy        17          what a striker that perforates a wall leaves in it (Recht & Ipson)
     shatter_level      17          where the released energy exceeds U_limit (r_inner, per particle size)
+    crack_sides        6           the side of each fired group's half-disc
+    arrest_lengths     17          how far fracture mechanics drives each crack (beyond the paper)
     crack_regions      output      the half-disc crack of each fired group
 """
 
@@ -217,6 +219,14 @@ def tensile_part(sig: np.ndarray) -> np.ndarray:
     return np.einsum("mik,mk,mjk->mij", v, np.maximum(w, 0.0), v)
 
 
+def hooke(grad: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. 1 and C eps for displacement gradients (M,3,3): (strain (M,3,3), strain and stress in Voigt
+    form (M,6))."""
+    eps = 0.5 * (grad + np.swapaxes(grad, 1, 2))
+    ev = strain_to_voigt(eps)
+    return eps, ev, ev @ C.T
+
+
 @dataclass
 class MemberState:
     """Lines 13-14 per member, at unit force (N = 1)."""
@@ -235,11 +245,9 @@ def member_state(x, volume, G, u, nb: Neighbourhood, members, owner, nbr, wf: Wa
         grad, _ = sph_gradient(x, volume, G, u, members, owner, nbr, correction)
     else:
         grad = _field_gradient(wf, nb.wall, nb.d[members], nb.frame, E1, nu1, ell)
-    eps = 0.5 * (grad + np.swapaxes(grad, 1, 2))
-    ev = strain_to_voigt(eps)
-    sv = ev @ C.T
-    sig = stress_from_voigt(sv)
+    eps, ev, sv = hooke(grad, C)
     energy = 0.5 * volume[members] * np.einsum("mi,mi->m", ev, sv)
+    sig = stress_from_voigt(sv)
     return MemberState(grad, eps, sig, tensile_part(sig), energy)
 
 
@@ -376,7 +384,7 @@ def arrest_lengths(wf: WallField, nb: Neighbourhood, C: np.ndarray, E1: float, n
             s = s / np.linalg.norm(s)
         d = (a[:, None, None] * s + depths[None, :, None] * n).reshape(-1, 3)
         grad = _field_gradient(wf, nb.wall, d, nb.frame, E1, nu1, ell)
-        sig = Pi @ stress_from_voigt(strain_to_voigt(0.5 * (grad + np.swapaxes(grad, 1, 2))) @ C.T) @ Pi
+        sig = Pi @ stress_from_voigt(hooke(grad, C)[2]) @ Pi
         opening = F * np.einsum("i,mij,j->m", m, sig, m).reshape(a.size, depths.size).max(axis=1)
         K_a = stress_intensity(a, np.maximum(opening, 0.0))
         below = np.flatnonzero(K_a < math.sqrt(E_along(C, m) * Gc))
@@ -441,25 +449,27 @@ def shatter_level(U_rel: float, rho: float, Gc: float, e_near: float, V_near: fl
     return (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0) / (rho * rho)
 
 
-def crack_regions(P: np.ndarray, n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray,
-                  r_out: np.ndarray, r_in: float, N: int, r_crush: float = 0.0,
-                  shatter: ShatterField | None = None) -> tuple[list[Crack], np.ndarray]:
-    """Step 6: a half-disc through P per fired group, with its crack normal, on the side of its
-    bisector projected onto the crack plane (the inward normal if the bisector is within ~6 degrees
-    of the crack normal); N = 1 gives a full disc. Returns (cracks, sides (N,3))."""
+def crack_sides(n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray, N: int) -> np.ndarray:
+    """Step 6, (N,3): the side of each fired group's half-disc, its bisector projected onto the crack
+    plane (the inward normal if the bisector is within ~6 degrees of the crack normal); zeros for a
+    full disc (N = 1) or a group that did not fire."""
     sides = np.zeros((N, 3))
-    cracks: list[Crack] = []
+    if N == 1:
+        return sides
     for k in np.flatnonzero(fired):
         mk = pdirs[k]
-        side = None
-        if N > 1:
-            for cand_dir in (gr.bisector[k], n):
-                s = cand_dir - np.dot(cand_dir, mk) * mk
-                if np.linalg.norm(s) >= SIDE_MIN:
-                    side = s / np.linalg.norm(s)
-                    break
-        if side is not None:
-            sides[k] = side
-        cracks.append(Crack(point=P, normal=mk, r_outer=float(r_out[k]), side=side, r_inner=r_in, r_crush=r_crush,
-                            shatter=shatter, source=f"impact.group{k}"))
-    return cracks, sides
+        for cand_dir in (gr.bisector[k], n):
+            s = cand_dir - np.dot(cand_dir, mk) * mk
+            if np.linalg.norm(s) >= SIDE_MIN:
+                sides[k] = s / np.linalg.norm(s)
+                break
+    return sides
+
+
+def crack_regions(P: np.ndarray, pdirs: np.ndarray, fired: np.ndarray, sides: np.ndarray, r_out: np.ndarray,
+                  r_in: float, r_crush: float = 0.0, shatter: ShatterField | None = None) -> list[Crack]:
+    """Output: a disc through P per fired group with its crack normal, radius and side (`crack_sides`;
+    none: a full disc), carrying the contact's shatter zone."""
+    return [Crack(point=P, normal=pdirs[k], r_outer=float(r_out[k]), side=sides[k] if np.any(sides[k]) else None,
+                  r_inner=r_in, r_crush=r_crush, shatter=shatter, source=f"impact.group{k}")
+            for k in np.flatnonzero(fired)]

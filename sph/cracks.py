@@ -129,7 +129,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -431,10 +431,10 @@ def analyse_impact(
     shatter = ShatterField(support=nb.rho, level=level, edge=nb.e_near, r_plug=r_plug)
     r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
     u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
-    cracks, sides = alg.crack_regions(P, n, gr, pdirs, fired, r_out, r_in, N, r_crush, shatter)
+    sides = alg.crack_sides(n, gr, pdirs, fired, N)
     arrest = alg.arrest_lengths(wf, nb, C, E1, nu1, ell, Pi, pdirs, sides, fired, F, Gc, L_body)
     r_out = alg.run_lengths(r_out, arrest, U_av, fired, Gc, B, nb.rho, L_body)
-    cracks = [replace(c, r_outer=float(r)) for c, r in zip(cracks, r_out[fired])]
+    cracks = alg.crack_regions(P, pdirs, fired, sides, r_out, r_in, r_crush, shatter)
     tim["cracks_ms"] = (clock() - t2) * 1e3 - tim["stress_ms"]
     return ImpactAnalysis(
         cracks=cracks, hertz=hz, field=wf.kind, E1=E1, nu1=nu1, nearest=nb.nearest, kernel=nb.kernel,
