@@ -25,6 +25,8 @@ def build_material(m: MaterialConfig, path: str, source: str):
     d = dict(m.stiffness)
     d.update(density=m.density, tensile_strength=m.tensile_strength, toughness=m.toughness,
              restitution=m.restitution, friction=m.friction, name=m.name)
+    if m.cleavage:
+        d["cleavage"] = m.cleavage
     try:
         return material_from_dict(d, key=f"{path}.stiffness")
     except ConfigError as exc:
@@ -53,6 +55,8 @@ class MaterialConfig:
     toughness: float = spec_field("float", 10.0, lo=0.0, hi=1e7, lo_open=True, unit="J/m^2")
     restitution: float = spec_field("float", 0.2, lo=0.0, hi=1.0, unit="-")
     friction: float = spec_field("float", 0.5, lo=0.0, hi=10.0, unit="-")
+    # weak planes (slate's cleavage, bedding): {normal = [x, y, z], tensile_strength = Pa} (sph/cleavage.py)
+    cleavage: dict = spec_field("dict", {})
     kernel: KernelConfig = spec_field("table", KernelConfig(), table=KernelConfig)
     # N radial cracks per event (Algorithm 1's groups), or "auto": N from the plate's bending vs
     # fracture energy and the impact speed (sph/structure.py, star_crack_count)

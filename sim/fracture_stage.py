@@ -296,7 +296,7 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     edge = tet_edge(float(ps.volume[nearest]))
     point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"])
     nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
-    material = world.materials[int(ps.material[nearest])]
+    material = world.object_materials[world.bodies[body].object_index][int(ps.material[nearest])]
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
                       **_contact_bodies(world, body, impact["other"], point, normal,
@@ -304,23 +304,28 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     result = analyse_impact(ps.centroid[ids], ps.volume[ids], G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
     if len(np.unique(ps.material[ids])) > 1:
-        result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks)
+        result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks,
+                                         result.field)
     return result
 
 
 def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, material: int,
-                     cracks: list) -> list:
+                     cracks: list, field: str = "auto") -> list:
     """Sect. 6, Fig. 12: a crack that reaches particles of another material stops there, and the
     nearest crossing point starts a new analysis (Algorithm 1) in the other material's particles,
     with its constants, kernel and crack count, struck by the same impact (same normal and speed):
-    the crack goes on in the direction the new material gives, or not at all where the new material
-    holds. One level: cracks of the new analyses are not followed into a third material."""
+    the crack goes on in the direction the new material gives, with the fracture energy it had left
+    (sph.crossings.carry_on), or not at all where the new material holds; the new analysis takes
+    the contact's wall model (a disc struck on its rim stays a beam at an inner crossing). One level:
+    cracks of the new analyses are not followed into a third material."""
     from dataclasses import replace
 
     from sph.cracks import analyse_impact, material_crossings, stop_at_crossings
+    from sph.crossings import carry_on
 
     ps = taken.particles
     mats = ps.material[ids]
+    materials = world.object_materials[world.bodies[body].object_index]
     out = []
     for crack in cracks:
         crossings = material_crossings(ps.centroid[ids], mats, crack, crack_material=material)
@@ -330,12 +335,11 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
         first = crossings[0]
         sub = ids[mats == first.material]
         spec_k = replace(spec, point=first.point, reference=None)
-        more = analyse_impact(ps.centroid[sub], ps.volume[sub], taken.kernel_G[sub], world.materials[first.material],
+        more = analyse_impact(ps.centroid[sub], ps.volume[sub], taken.kernel_G[sub], materials[first.material],
                               spec_k, crack_count=world.cfg.materials[first.material].cracks,
-                              thickness=world.bodies[body].thickness)
-        # the shatter zone belongs to the contact, not to the crossing
-        source = f"{crack.source}.crossing.material{first.material}"
-        out += [replace(c, r_inner=0.0, r_crush=0.0, shatter=None, source=source) for c in more.cracks]
+                              thickness=world.bodies[body].thickness, field=field)
+        out += carry_on(crack, first, more.cracks, materials[material].toughness,
+                        materials[first.material].toughness, f"{crack.source}.crossing.material{first.material}")
     return out
 
 

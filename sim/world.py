@@ -132,7 +132,12 @@ class World:
 
     # ------------------------------------------------------------------ building
     def _build_materials(self) -> None:
+        from sph.materials import oriented
+
         self.materials = [m.elastic for m in self.cfg.materials]  # validated when the scene was loaded
+        # per object: its materials with their axes (stiffness, cleavage) turned by its rotation
+        self.object_materials = [[oriented(m, euler_xyz_deg(o.rotation)) for m in self.materials]
+                                 for o in self.cfg.objects]
         self.material_index = {m.name: i for i, m in enumerate(self.cfg.materials)}
 
     def _object_geometry(self, i: int):

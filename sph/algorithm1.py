@@ -30,6 +30,7 @@ import numpy as np
 from core.errors import ConfigError
 from geometry.cutting import Crack, ShatterField
 from geometry.particles import tet_edge
+from sph.cleavage import Cleavage, equivalent_tension, opens_on_plane, tension_across
 from sph.contact import boussinesq_displacement, boussinesq_gradient, plate_displacement, plate_gradient
 from sph.eigen import sym_eig3_np
 from sph.gradient import neighbour_pairs, sph_gradient
@@ -288,43 +289,48 @@ def plane_stress(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray:
     return np.eye(3)
 
 
+def group_mean(values: np.ndarray, gr: Groups, N: int) -> np.ndarray:
+    """(N, ...) the groups' weighted means (weights gr.weight) of per-member values (M, ...)."""
+    if values.shape[0] == 0:
+        return np.zeros((N, *values.shape[1:]))
+    flat = (gr.weight.reshape(-1, *([1] * (values.ndim - 1))) * values).reshape(values.shape[0], -1)
+    sums = np.stack([np.bincount(gr.group, weights=flat[:, c], minlength=N) for c in range(flat.shape[1])], axis=1)
+    safe = np.where(gr.weight_sum > 0.0, gr.weight_sum, 1.0)
+    return (sums / safe[:, None]).reshape(N, *values.shape[1:])
+
+
 def group_state(ms: MemberState, gr: Groups, N: int, F: float, Pi: np.ndarray) -> dict:
     """Lines 13-14 per group: the weighted means of grad u, strain, stress (at force F) and of the
     tensile stress per newton T_g (plane stress applied), and U_g = sum of the members' energies."""
-    m = gr.group.size
-    safe = np.where(gr.weight_sum > 0.0, gr.weight_sum, 1.0)
-
-    def gmean(a: np.ndarray) -> np.ndarray:
-        flat = (gr.weight[:, None, None] * a).reshape(m, 9)
-        sums = np.stack([np.bincount(gr.group, weights=flat[:, c], minlength=N) for c in range(9)], axis=1)
-        return sums.reshape(N, 3, 3) / safe[:, None, None]
-
-    energy = np.bincount(gr.group, weights=ms.energy, minlength=N) * F * F if m else np.zeros(N)
-    return dict(grad_u=gmean(ms.grad) * F, strain=gmean(ms.strain) * F, stress=gmean(ms.stress) * F,
-                tension_per_newton=Pi @ gmean(ms.tension) @ Pi, energy=energy)
+    energy = np.bincount(gr.group, weights=ms.energy, minlength=N) * F * F if gr.group.size else np.zeros(N)
+    return dict(grad_u=group_mean(ms.grad, gr, N) * F, strain=group_mean(ms.strain, gr, N) * F,
+                stress=group_mean(ms.stress, gr, N) * F, tension_per_newton=Pi @ group_mean(ms.tension, gr, N) @ Pi,
+                energy=energy)
 
 
 def rankine_test(ms: MemberState, gr: Groups, T1: np.ndarray, n: np.ndarray, N: int, F: float, sigma_t: float,
-                 Pi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                 Pi: np.ndarray, cleavage: Cleavage | None = None) -> tuple[np.ndarray, ...]:
     """Lines 15-16: a group fires where the largest tensile principal stress of one of its members
     exceeds the strength (the crack starts at the peak); its crack normal is the eigenvector of the
-    largest principal value of the group's mean tension T_g. Returns (principal values (N,3) Pa,
-    normals (N,3), peak member tension per newton (N,) Pa/N, fired (N,))."""
+    largest principal value of the group's mean tension T_g, or the weak planes' normal where T_g
+    uses more of their strength (sph.cleavage). Returns (principal values (N,3) Pa, normals (N,3),
+    peak member tension per newton (N,) Pa/N, as the equivalent bulk tension, fired (N,))."""
+    across = tension_across(Pi @ ms.stress @ Pi, cleavage) if cleavage is not None else None
+    across_mean = group_mean(across, gr, N) if cleavage is not None else np.zeros(N)
     pvals = np.zeros((N, 3))
     pdirs = np.zeros((N, 3))
     for k in range(N):  # N groups (a handful): sph.eigen as the conventions ask
         vals, vecs = sym_eig3_np(T1[k])
-        nk = vecs[:, 0]
+        nk = cleavage.normal if opens_on_plane(across_mean[k], vals[0], cleavage, sigma_t) else vecs[:, 0]
         t_k = np.cross(n, gr.bisector[k])
         ref = float(np.dot(nk, t_k))
         if abs(ref) < 1e-12:
             ref = float(np.dot(nk, gr.bisector[k]))
         pvals[k] = vals * F
         pdirs[k] = -nk if ref < 0.0 else nk
-    member_plus = Pi @ ms.tension @ Pi
-    lam = np.linalg.eigvalsh(member_plus)[:, -1] if gr.group.size else np.zeros(0)
+    bulk = np.linalg.eigvalsh(Pi @ ms.tension @ Pi)[:, -1] if gr.group.size else np.zeros(0)
     peak = np.zeros(N)
-    np.maximum.at(peak, gr.group, lam)
+    np.maximum.at(peak, gr.group, equivalent_tension(bulk, across, cleavage, sigma_t))
     fired = (gr.count > 0) & (gr.weight_sum > 0.0) & (peak * F > sigma_t)
     return pvals, pdirs, peak, fired
 

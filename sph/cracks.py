@@ -414,7 +414,8 @@ def analyse_impact(
     gr = alg.angular_groups(nb, members, volume, N)
     Pi = alg.plane_stress(wf.kind, nb.wall, n)
     gs = alg.group_state(ms, gr, N, F, Pi)
-    pvals, pdirs, peak, fired = alg.rankine_test(ms, gr, gs["tension_per_newton"], n, N, F, sigma_t, Pi)
+    pvals, pdirs, peak, fired = alg.rankine_test(ms, gr, gs["tension_per_newton"], n, N, F, sigma_t, Pi,
+                                                 material.cleavage)
     tim["stress_ms"] = (clock() - t2) * 1e3
     # 6-8. line 17: r_outer (Eq. 11), r_inner (U_limit), the crack regions
     K = 0.5 * hz.m_eff * impact.speed**2

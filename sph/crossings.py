@@ -1,6 +1,7 @@
 """Cracks that reach another material (Sect. 6, Fig. 12): where a crack region first meets particles
 of a different material, and the crack stopped there. The World restarts Algorithm 1 at those points
-with the other material's constants and kernel (sim/fracture_stage.py, across_materials).
+with the other material's constants and kernel (sim/fracture_stage.py, across_materials), and the
+cracks it gives carry the stopped crack on (`carry_on`: with the fracture energy it had left).
 """
 
 from __future__ import annotations
@@ -89,3 +90,15 @@ def stop_at_crossings(crack: Crack, crossings: list[MaterialCrossing]) -> Crack:
     shatter = None if crack.shatter is None else replace(crack.shatter, cap=min(crack.shatter.cap, r))
     return replace(crack, r_outer=min(crack.r_outer, r), r_inner=r_inner, r_crush=min(crack.r_crush, r_inner),
                    shatter=shatter)
+
+
+
+def carry_on(parent: Crack, crossing: MaterialCrossing, cracks: list[Crack], toughness_from: float,
+             toughness_to: float, source: str) -> list[Crack]:
+    """The cracks that the new material's analysis at a crossing gives (`cracks`, in its direction), as
+    continuations of the parent crack stopped there: each runs at least as far as the fracture energy
+    the parent had left allows, G_c B (r_outer - d) spent at the new material's G_c' (the parent
+    would have run to r_outer); the shatter zone stays with the contact."""
+    left = max(parent.r_outer - crossing.distance, 0.0) * toughness_from / toughness_to
+    return [replace(c, r_outer=max(c.r_outer, left), r_inner=0.0, r_crush=0.0, shatter=None, source=source)
+            for c in cracks]

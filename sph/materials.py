@@ -32,11 +32,12 @@ comes from the engineering shear convention: |e|^2 <= 2 |eps|_F^2).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from core.errors import MaterialError
+from sph.cleavage import Cleavage, cleavage_from_dict
 
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # index pairs of Voigt slots 0..5
 _SYM_RTOL = 1e-10  # relative asymmetry accepted in a full 6x6
@@ -305,6 +306,7 @@ class Material:
     toughness: float = 10.0  # J/m^2: critical energy release rate G_c (Eq. 11)
     restitution: float = 0.3  # 1: coefficient of restitution in contacts
     friction: float = 0.5  # 1: Coulomb friction coefficient
+    cleavage: Cleavage | dict | None = None  # weak planes: normal and strength across them (sph.cleavage)
     _c_max: float | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -321,6 +323,25 @@ class Material:
         if not (math.isfinite(f) and f >= 0.0):
             raise MaterialError(f"{key}.friction", self.friction, ">= 0")
         self.friction = f
+        if isinstance(self.cleavage, dict):
+            self.cleavage = cleavage_from_dict(self.cleavage, self.tensile_strength, f"{key}.cleavage")
+
+
+def oriented(material: Material, R: np.ndarray) -> Material:
+    """The material of an object turned by R (3,3), body -> reference frame: its stiffness axes and
+    cleavage normal, given in the object's own frame like its kernel axes, turned with it."""
+    R = np.asarray(R, dtype=np.float64)
+    if np.allclose(R, np.eye(3), rtol=0.0, atol=1e-15):
+        return material
+    C = rotate_stiffness(material.stiffness, R)
+    if np.allclose(C, material.stiffness, rtol=0.0, atol=1e-12 * float(np.abs(C).max())):
+        C = material.stiffness  # isotropic: turning it would only change it by rounding
+    cleavage = material.cleavage
+    if cleavage is not None:
+        cleavage = Cleavage(normal=R @ cleavage.normal, tensile_strength=cleavage.tensile_strength)
+    elif C is material.stiffness:
+        return material
+    return replace(material, stiffness=C, cleavage=cleavage)
 
 
 def wave_speed_max(material: Material) -> float:
@@ -334,11 +355,11 @@ def material_from_dict(d: dict, key: str = "material") -> Material:
     """Build a Material from a scene dictionary. `model` is one of isotropic (E, nu), transverse
     (axis, E_axial, E_transverse, nu_transverse, nu_axial, G_axial), orthotropic (E1 .. G23, axes)
     or anisotropic (stiffness: 6x6 or 21 constants); plus density, tensile_strength, toughness,
-    restitution, friction. Unknown or missing keys raise MaterialError naming the key."""
+    restitution, friction and cleavage (sph.cleavage). Unknown or missing keys raise MaterialError naming the key."""
     d = dict(d)
     model = d.pop("model", "isotropic")
     name = str(d.pop("name", key.split(".")[-1]))
-    common = {k: d.pop(k) for k in ("tensile_strength", "toughness", "restitution", "friction") if k in d}
+    common = {k: d.pop(k) for k in ("tensile_strength", "toughness", "restitution", "friction", "cleavage") if k in d}
     if "density" not in d:
         raise MaterialError(f"{key}.density", None, "> 0 (kg/m^3), required")
     density = d.pop("density")

@@ -103,16 +103,23 @@ def test_a_piece_cut_free_of_the_frame_falls_and_breaks_again():
         w.release()
 
 
-def test_a_crack_changes_direction_in_the_other_material():
+@pytest.mark.parametrize("turn_deg", [0.0, 30.0])
+def test_a_crack_changes_direction_in_the_other_material(turn_deg):
     """Fig. 12: the Tai Chi ornament struck on the rim of its white half: a crack that reaches the black
-    half stops there, and the black half's own analysis (its kernel and constants) gives cracks in other
-    directions. The shatter zone (and its crushed core) belongs to the contact, not to the crossing."""
+    half stops there, and the black half's own analysis (its kernel, constants and cleavage) gives
+    cracks in other directions: on the slate's cleavage planes, which turn with the disc (turned about
+    its axis by turn_deg). The shatter zone (and its crushed core) belongs to the contact, not to the
+    crossing; a crossing crack runs at least as far as the fracture energy its parent had left."""
     raw = tomllib.loads((ROOT_SCENES / "taichi.toml").read_text())
-    raw["objects"][0].update(rotation=[0.0, 0.0, 0.0], position=[0.0, 0.5, 0.0])
+    raw["objects"][0].update(rotation=[0.0, turn_deg, 0.0], position=[0.0, 0.5, 0.0])
     raw["scene"]["gravity"] = [0.0, 0.0, 0.0]
+    slate = next(m for m in raw["materials"] if m["name"] == "black_slate")
+    c, s = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
+    turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # about y, the disc's axis
+    cleavage = turn @ np.asarray(slate["cleavage"]["normal"]) / np.linalg.norm(slate["cleavage"]["normal"])
     w = World(scene_from_dict(raw, "taichi"))
     try:
-        d = np.array([math.cos(math.radians(90.0)), 0.0, math.sin(math.radians(90.0))])
+        d = turn @ np.array([0.0, 0.0, 1.0])
         impact = dict(point=np.array([0.0, 0.5, 0.0]) + 0.1 * d, normal=-d, speed=6.0, other=-1, impulse=1.0)
         result = analyse(w, 0, impact)
         ps = w.particles
@@ -131,6 +138,8 @@ def test_a_crack_changes_direction_in_the_other_material():
             # the stopped crack ends at the crossing, which lies on its plane
             assert abs(float((c.point - parent.point) @ parent.normal)) < 1e-9
             assert parent.r_outer <= np.linalg.norm(c.point - parent.point) + 1e-9
+        # the slate opens on its cleavage (4 MPa across it against 15 MPa along it), turned with the disc
+        assert max(abs(float(c.normal @ cleavage)) for c in crossing) > math.cos(math.radians(1.0))
         assert max(turned) > 10.0, turned  # the black half's own analysis deflects the crack
     finally:
         w.release()
