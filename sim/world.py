@@ -302,8 +302,14 @@ class World:
                 lo, hi = np.asarray(box[:3]), np.asarray(box[3:])
                 c = ps.centroid[sp["start"]:sp["stop"]]
                 fixed[sp["start"]:sp["stop"]] = np.all((c >= lo) & (c <= hi), axis=1)
+        # each object's materials with their axes turned with it: elastic material id = object x materials + id
+        nm = len(self.materials)
+        obj = np.zeros(len(ps), dtype=np.int64)
+        for sp in self._spawn:
+            obj[sp["start"]:sp["stop"]] = sp["object"]
         self.elastic = ElasticEffect(
-            ps.centroid, ps.volume, self.kernel_G, self.materials, material_id=ps.material, fixed=fixed,
+            ps.centroid, ps.volume, self.kernel_G, [m for per in self.object_materials for m in per],
+            material_id=obj * nm + ps.material, fixed=fixed,
             gravity=tuple(self.cfg.scene.gravity), damping=self.cfg.scene.elastic_damping,
         )
         self.allocations["elastic"] = self.elastic

@@ -5,18 +5,23 @@ Known answers: under uniaxial tension s along e at an angle theta to the planes'
 plane of weakness gives the failure stress min(sigma_t, sigma_c / cos^2 theta) (computed here from
 the traction on the plane, independently of the module), with the crack on the plane where the second
 governs; a cleavage as strong as the bulk changes nothing; the crack normals of a struck pane turn
-onto the cleavage normal and its threshold speed falls; the planes turn with the object's rotation.
+onto the cleavage normal and its threshold speed falls; the planes and the stiffness axes turn with
+the object's rotation, for the fracture analysis and the elastic effect.
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from core.errors import MaterialError
 from geometry.cutting import Crack
+from scenes.loader import scene_from_dict
+from sim.world import World
 from sph.cleavage import Cleavage, equivalent_tension, opens_on_plane, tension_across
 from sph.contact import effective_isotropic
 from sph.cracks import threshold_speed
@@ -146,3 +151,21 @@ def test_a_crack_carries_its_left_energy_into_the_other_material():
     assert [c.r_outer for c in out] == [pytest.approx(0.3, rel=1e-12), 0.5]
     assert all(c.r_inner == 0.0 and c.shatter is None and c.source == "p.crossing.material1" for c in out)
     assert np.allclose(out[0].normal, short.normal)
+
+
+def test_a_turned_object_takes_its_stiffness_axes_along():
+    """The wire of Fig. 1 made stiff along its own axis (y, transversely isotropic) and turned 90 degrees
+    about z: both the fracture analysis and the elastic effect see the stiff axis along the world's x."""
+    raw = tomllib.loads((Path(__file__).resolve().parents[2] / "scenes" / "wire.toml").read_text())
+    raw["materials"][0]["stiffness"] = dict(model="transverse", axis=[0.0, 1.0, 0.0], E_axial=6.0e7,
+                                            E_transverse=2.0e7, nu_transverse=0.3, nu_axial=0.3, G_axial=8.0e6)
+    w = World(scene_from_dict(raw, "wire"))
+    try:
+        own = w.materials[0].stiffness
+        assert own[1, 1] > 2.0 * own[0, 0]  # stiff along the object's own y
+        turned = w.object_materials[0][0].stiffness
+        assert turned[0, 0] == pytest.approx(own[1, 1], rel=1e-9) and turned[1, 1] == pytest.approx(own[0, 0], rel=1e-9)
+        mid = int(w.elastic.sph.particle_mat.to_numpy()[0])
+        assert w.elastic.materials[mid] is w.object_materials[0][0]
+    finally:
+        w.release()
