@@ -33,9 +33,9 @@ from core.errors import MaterialError
 
 @dataclass(frozen=True)
 class Cleavage:
-    """A family of parallel weak planes in the body's rest frame."""
+    """A family of parallel weak planes."""
 
-    normal: np.ndarray  # (3,) unit normal of the planes (material frame = the body's rest frame)
+    normal: np.ndarray  # (3,) unit normal of the planes: the object's own frame (sph.materials.oriented turns it)
     tensile_strength: float  # Pa: strength across the planes, at most the bulk strength
 
 

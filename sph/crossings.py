@@ -92,7 +92,6 @@ def stop_at_crossings(crack: Crack, crossings: list[MaterialCrossing]) -> Crack:
                    shatter=shatter)
 
 
-
 def carry_on(parent: Crack, crossing: MaterialCrossing, cracks: list[Crack], toughness_from: float,
              toughness_to: float, source: str) -> list[Crack]:
     """The cracks that the new material's analysis at a crossing gives (`cracks`, in its direction), as
