@@ -296,20 +296,17 @@ class World:
 
         ps = self.particles
         fixed = np.zeros(len(ps), dtype=bool)
+        obj = np.zeros(len(ps), dtype=np.int64)  # each particle's object, whose materials turn with it
         for sp in self._spawn:
+            obj[sp["start"]:sp["stop"]] = sp["object"]
             box = self.cfg.objects[sp["object"]].fixed_box
             if box:
                 lo, hi = np.asarray(box[:3]), np.asarray(box[3:])
                 c = ps.centroid[sp["start"]:sp["stop"]]
                 fixed[sp["start"]:sp["stop"]] = np.all((c >= lo) & (c <= hi), axis=1)
-        # each object's materials with their axes turned with it: elastic material id = object x materials + id
-        nm = len(self.materials)
-        obj = np.zeros(len(ps), dtype=np.int64)
-        for sp in self._spawn:
-            obj[sp["start"]:sp["stop"]] = sp["object"]
-        self.elastic = ElasticEffect(
+        self.elastic = ElasticEffect(  # elastic material id: object x materials + material
             ps.centroid, ps.volume, self.kernel_G, [m for per in self.object_materials for m in per],
-            material_id=obj * nm + ps.material, fixed=fixed,
+            material_id=obj * len(self.materials) + ps.material, fixed=fixed,
             gravity=tuple(self.cfg.scene.gravity), damping=self.cfg.scene.elastic_damping,
         )
         self.allocations["elastic"] = self.elastic
