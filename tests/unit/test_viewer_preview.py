@@ -6,9 +6,11 @@ a strike cuts and records an event; a shot ball flies in a straight line; the fr
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from core.runtime import float_eps
 from render.pick import ray_cast, scene_triangles
@@ -149,6 +151,28 @@ def test_tuning_reaches_the_analysis(plate):
     t.apply(w, base)
     np.testing.assert_array_equal(w.kernel_G, kernel_tensors(w, 1.0))
     assert preview_strike(w, hit, 5.0).threshold_speed == pytest.approx(v1, rel=1e-9)
+
+
+def test_strength_slider_reaches_turned_materials(taichi_runtime):
+    """The Tai Chi disc is turned and its slate anisotropic, so the analysis reads a turned copy of the
+    slate (World.object_materials): the strength slider scales that copy too, and its cleavage."""
+    from sim.world import World
+
+    raw = tomllib.loads((Path(__file__).resolve().parents[2] / "scenes" / "taichi.toml").read_text())
+    w = World(scene_from_dict(raw, "taichi"))
+    try:
+        base = copy.deepcopy(w.cfg)
+        slate = w.material_index["black_slate"]
+        turned = w.object_materials[0][slate]
+        assert turned is not w.materials[slate]
+        t = Tuning.from_config(base)
+        t.strength_factor = 0.5
+        t.apply(w, base)
+        assert turned.tensile_strength == pytest.approx(0.5 * base.materials[slate].tensile_strength, rel=1e-12)
+        expected = 0.5 * base.materials[slate].cleavage["tensile_strength"]
+        assert turned.cleavage.tensile_strength == pytest.approx(expected, rel=1e-12)
+    finally:
+        w.release()
 
 
 def test_strike_and_ball(taichi_runtime):
