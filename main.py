@@ -33,9 +33,9 @@ def _check_threads(args: argparse.Namespace) -> None:
 
 
 def _init(args: argparse.Namespace) -> None:
+    """Start Taichi (main() has checked --threads before anything imported it)."""
     from core.runtime import init_taichi
 
-    _check_threads(args)
     info = init_taichi(arch=args.arch, precision=args.precision, threads=args.threads)
     print(f"taichi: arch={info.arch} precision={info.precision} device={info.device}", file=sys.stderr)
 

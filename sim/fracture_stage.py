@@ -296,7 +296,7 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     edge = tet_edge(float(ps.volume[nearest]))
     point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"])
     nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
-    material = world.object_materials[world.bodies[body].object_index][int(ps.material[nearest])]
+    material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
                       **_contact_bodies(world, body, impact["other"], point, normal,
@@ -325,7 +325,7 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
 
     ps = taken.particles
     mats = ps.material[ids]
-    materials = world.object_materials[world.bodies[body].object_index]
+    obj = world.bodies[body].object_index
     out = []
     for crack in cracks:
         crossings = material_crossings(ps.centroid[ids], mats, crack, crack_material=material)
@@ -335,11 +335,12 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
         first = crossings[0]
         sub = ids[mats == first.material]
         spec_k = replace(spec, point=first.point, reference=None)
-        more = analyse_impact(ps.centroid[sub], ps.volume[sub], taken.kernel_G[sub], materials[first.material],
-                              spec_k, crack_count=world.cfg.materials[first.material].cracks,
+        other = world.object_material(obj, first.material)
+        more = analyse_impact(ps.centroid[sub], ps.volume[sub], taken.kernel_G[sub], other, spec_k,
+                              crack_count=world.cfg.materials[first.material].cracks,
                               thickness=world.bodies[body].thickness, field=field)
-        out += carry_on(crack, first, more.cracks, materials[material].toughness,
-                        materials[first.material].toughness, f"{crack.source}.crossing.material{first.material}")
+        out += carry_on(crack, first, more.cracks, world.materials[material].toughness, other.toughness,
+                        f"{crack.source}.crossing.material{first.material}")
     return out
 
 

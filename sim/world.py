@@ -29,6 +29,7 @@ from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
 from sim.stages import FRAME, SUBSTEP, build_stages
 from sim.timers import StageTimers
+from sph.materials import oriented
 
 SMALL_PIECE = 0.01  # 1: pieces lighter than this fraction of their object's mass count as small
 
@@ -132,13 +133,12 @@ class World:
 
     # ------------------------------------------------------------------ building
     def _build_materials(self) -> None:
-        from sph.materials import oriented
-
         self.materials = [m.elastic for m in self.cfg.materials]  # validated when the scene was loaded
-        # per object: its materials with their axes (stiffness, cleavage) turned by its rotation
-        self.object_materials = [[oriented(m, euler_xyz_deg(o.rotation)) for m in self.materials]
-                                 for o in self.cfg.objects]
         self.material_index = {m.name: i for i, m in enumerate(self.cfg.materials)}
+
+    def object_material(self, obj: int, mid: int):
+        """Material mid in object obj, its axes turned with the object; at use, so the viewer's edits reach it."""
+        return oriented(self.materials[mid], euler_xyz_deg(self.cfg.objects[obj].rotation))
 
     def _object_geometry(self, i: int):
         o = self.cfg.objects[i]
@@ -304,9 +304,10 @@ class World:
                 lo, hi = np.asarray(box[:3]), np.asarray(box[3:])
                 c = ps.centroid[sp["start"]:sp["stop"]]
                 fixed[sp["start"]:sp["stop"]] = np.all((c >= lo) & (c <= hi), axis=1)
-        self.elastic = ElasticEffect(  # elastic material id: object x materials + material
-            ps.centroid, ps.volume, self.kernel_G, [m for per in self.object_materials for m in per],
-            material_id=obj * len(self.materials) + ps.material, fixed=fixed,
+        nm = len(self.materials)  # elastic material id: object x materials + material
+        mats = [self.object_material(k // nm, k % nm) for k in range(len(self.cfg.objects) * nm)]
+        self.elastic = ElasticEffect(
+            ps.centroid, ps.volume, self.kernel_G, mats, material_id=obj * nm + ps.material, fixed=fixed,
             gravity=tuple(self.cfg.scene.gravity), damping=self.cfg.scene.elastic_damping,
         )
         self.allocations["elastic"] = self.elastic

@@ -86,12 +86,11 @@ class Tuning:
             m.cracks = int(base_cfg.materials[i].cracks) if int(self.cracks) == first else int(self.cracks)
             s = float(base_cfg.materials[i].tensile_strength) * self.strength_factor
             m.tensile_strength = s
-            # the scene's material and each object's turned copy (the analysis reads those), weak planes too
-            for mat in {id(per[i]): per[i] for per in [world.materials, *world.object_materials]}.values():
-                mat.tensile_strength = s
-                if mat.cleavage is not None:
-                    base = float(base_cfg.materials[i].cleavage["tensile_strength"])
-                    mat.cleavage = replace(mat.cleavage, tensile_strength=base * self.strength_factor)
+            mat = world.materials[i]  # the World turns it for each object at use (World.object_material)
+            mat.tensile_strength = s
+            if mat.cleavage is not None:  # its weak planes scale with it
+                base = float(base_cfg.materials[i].cleavage["tensile_strength"])
+                mat.cleavage = replace(mat.cleavage, tensile_strength=base * self.strength_factor)
         if getattr(world, "kernel_G", None) is None or "rigid" not in world.stages:
             return
         done = self._applied.get(id(world))

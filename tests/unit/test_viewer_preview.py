@@ -155,7 +155,7 @@ def test_tuning_reaches_the_analysis(plate):
 
 def test_strength_slider_reaches_turned_materials(taichi_runtime):
     """The Tai Chi disc is turned and its slate anisotropic, so the analysis reads a turned copy of the
-    slate (World.object_materials): the strength slider scales that copy too, and its cleavage."""
+    slate (World.object_material): the strength slider reaches that copy too, and its cleavage."""
     from sim.world import World
 
     raw = tomllib.loads((Path(__file__).resolve().parents[2] / "scenes" / "taichi.toml").read_text())
@@ -163,11 +163,11 @@ def test_strength_slider_reaches_turned_materials(taichi_runtime):
     try:
         base = copy.deepcopy(w.cfg)
         slate = w.material_index["black_slate"]
-        turned = w.object_materials[0][slate]
-        assert turned is not w.materials[slate]
+        assert w.object_material(0, slate) is not w.materials[slate]
         t = Tuning.from_config(base)
         t.strength_factor = 0.5
         t.apply(w, base)
+        turned = w.object_material(0, slate)
         assert turned.tensile_strength == pytest.approx(0.5 * base.materials[slate].tensile_strength, rel=1e-12)
         expected = 0.5 * base.materials[slate].cleavage["tensile_strength"]
         assert turned.cleavage.tensile_strength == pytest.approx(expected, rel=1e-12)
