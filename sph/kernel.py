@@ -168,8 +168,6 @@ def kernel_wpca(
     """
     from scipy.spatial import cKDTree
 
-    from sph.eigen import sym_eig3_np
-
     x = np.asarray(x, dtype=np.float64)
     n = x.shape[0]
     if k_r < 1.0:
@@ -192,13 +190,14 @@ def kernel_wpca(
             cov[:, a, b] = np.bincount(ii, weights=w * dx[:, a] * dx[:, b], minlength=n)
             cov[:, b, a] = cov[:, a, b]
     cov /= wsum[:, None, None]
-    G = np.empty((n, 3, 3))
-    for i in range(n):
-        vals, R = sym_eig3_np(cov[i])
-        if count[i] < min_neighbours or vals[0] <= 0.0:
-            G[i] = np.eye(3) / h
-            continue
-        s = np.sqrt(np.maximum(vals, vals[0] / k_r**2))  # clamp: h_1 / h_k <= k_r
-        lengths = h * s / np.cbrt(np.prod(s))  # h_1 h_2 h_3 = h^3: same det(G) as I/h
-        G[i] = R @ np.diag(1.0 / (lengths * scale)) @ R.T
+    # C_i = R diag(s_1 >= s_2 >= s_3) R^T for all particles at once (LAPACK; eigh gives s ascending)
+    vals, R = np.linalg.eigh(cov)
+    vals, R = vals[:, ::-1], R[:, :, ::-1]
+    flat = (count < min_neighbours) | (vals[:, 0] <= 0.0)
+    s2 = np.maximum(vals, vals[:, :1] / k_r**2)  # clamp: h_1 / h_k <= k_r
+    s2[flat] = 1.0
+    s = np.sqrt(s2)
+    lengths = h * s / np.cbrt(np.prod(s, axis=1))[:, None]  # h_1 h_2 h_3 = h^3: same det(G) as I/h
+    G = np.einsum("nik,nk,njk->nij", R, 1.0 / (lengths * scale), R)
+    G[flat] = np.eye(3) / h
     return G
