@@ -203,37 +203,48 @@ def enclosed_volumes(mesh: SurfaceMesh) -> np.ndarray:
     return np.bincount(mesh.face_label, weights=six, minlength=n) / 6.0
 
 
-def on_surface(surface_tris: np.ndarray, tris: np.ndarray, tol: float) -> np.ndarray:
-    """(F,) bool: which triangles `tris` (F, 3, 3) lie on the surface made of `surface_tris` (T, 3, 3)
-    with the same orientation: the centroid within `tol` (m) of a surface triangle's plane and inside
-    it (barycentric tolerance tol / its size), normals within 25 degrees. Used to tell a fragment's
-    outer faces (on the object's surface at rest) from the faces a crack created."""
-    out = np.zeros(len(tris), dtype=bool)
-    if len(tris) == 0 or len(surface_tris) == 0:
+class RestSurface:
+    """The objects' surface at rest, indexed once, to tell a fragment's outer faces (on it) from the
+    faces a crack created: `covers(tris, tol)` is asked after every fracture event, for that event's
+    new faces only, so the triangles' centres, normals and search tree are built here and kept."""
+
+    def __init__(self, surface_tris: np.ndarray) -> None:
+        self.tris = np.asarray(surface_tris, dtype=np.float64).reshape(-1, 3, 3)  # (T, 3, 3) m
+        self.centre = self.tris.mean(1)  # (T, 3) m
+        n = np.cross(self.tris[:, 1] - self.tris[:, 0], self.tris[:, 2] - self.tris[:, 0])
+        self.area2 = np.linalg.norm(n, axis=1)  # (T,) m^2: twice each triangle's area
+        self.normal = n / np.maximum(self.area2, 1e-300)[:, None]  # (T, 3) -: unit normals
+        # (m) farthest corner from its triangle's centre: a query centre on a triangle is this near its centre
+        self.reach = float(np.max(np.linalg.norm(self.tris - self.centre[:, None, :], axis=2))) if len(self.tris) \
+            else 0.0
+        self._tree = cKDTree(self.centre) if len(self.tris) else None
+
+    def covers(self, tris: np.ndarray, tol: float) -> np.ndarray:
+        """(F,) bool: which triangles `tris` (F, 3, 3) lie on this surface with the same orientation: the
+        centroid within `tol` (m) of a surface triangle's plane and inside it (barycentric tolerance tol /
+        its size), normals within 25 degrees."""
+        out = np.zeros(len(tris), dtype=bool)
+        if len(tris) == 0 or self._tree is None:
+            return out
+        qc = tris.mean(1)
+        qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+        qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
+        # candidate (query, surface triangle) pairs as arrays, no Python list per query
+        pairs = cKDTree(qc).sparse_distance_matrix(self._tree, self.reach + tol, output_type="ndarray")
+        if len(pairs) == 0:
+            return out
+        q, t = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
+        a, b, c = self.tris[t, 0], self.tris[t, 1], self.tris[t, 2]
+        n = self.normal[t]
+        p = qc[q]
+        near_plane = np.abs(np.einsum("ij,ij->i", p - a, n)) <= tol
+        same_way = np.einsum("ij,ij->i", qn[q], n) > np.cos(np.radians(25.0))
+        # barycentric coordinates of p in (a, b, c), by sub-areas along n
+        wa = np.einsum("ij,ij->i", np.cross(c - b, p - b), n)
+        wb = np.einsum("ij,ij->i", np.cross(a - c, p - c), n)
+        wc = np.einsum("ij,ij->i", np.cross(b - a, p - a), n)
+        slack = -tol * np.sqrt(self.area2[t])
+        inside = (wa >= slack) & (wb >= slack) & (wc >= slack)
+        ok = near_plane & same_way & inside
+        out[q[ok]] = True
         return out
-    sc = surface_tris.mean(1)
-    reach = float(np.max(np.linalg.norm(surface_tris - sc[:, None, :], axis=2))) + tol
-    qc = tris.mean(1)
-    qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
-    # candidate (query, surface triangle) pairs as arrays, no Python list per query
-    pairs = cKDTree(qc).sparse_distance_matrix(cKDTree(sc), reach, output_type="ndarray")
-    if len(pairs) == 0:
-        return out
-    q, t = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
-    a, b, c = surface_tris[t, 0], surface_tris[t, 1], surface_tris[t, 2]
-    n = np.cross(b - a, c - a)
-    area2 = np.linalg.norm(n, axis=1)
-    n = n / np.maximum(area2, 1e-300)[:, None]
-    p = qc[q]
-    near_plane = np.abs(np.einsum("ij,ij->i", p - a, n)) <= tol
-    same_way = np.einsum("ij,ij->i", qn[q], n) > np.cos(np.radians(25.0))
-    # barycentric coordinates of p in (a, b, c), by sub-areas along n
-    wa = np.einsum("ij,ij->i", np.cross(c - b, p - b), n)
-    wb = np.einsum("ij,ij->i", np.cross(a - c, p - c), n)
-    wc = np.einsum("ij,ij->i", np.cross(b - a, p - a), n)
-    slack = -tol * np.sqrt(area2)
-    inside = (wa >= slack) & (wb >= slack) & (wc >= slack)
-    ok = near_plane & same_way & inside
-    out[q[ok]] = True
-    return out

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.surface import on_surface
+from geometry.surface import RestSurface
 from render.camera import Camera
 from render.crack_lines import LIFT_REL, LINE_DARK, LINE_WIDTH_REL, line_color, ribbons
 from render.framing import FollowCamera
@@ -148,7 +148,7 @@ class SceneView:
     Colours: `colors="material"` draws each face in its material's look (render/looks.py) and the faces
     that cracks created in the look's crack shade; `colors="fragments"` gives every body its own
     palette colour (crack faces a shade of it). A face is a crack face when it does not lie on the
-    objects' surface at rest (geometry.surface.on_surface); the answer is cached per tet face.
+    objects' surface at rest (geometry.surface.RestSurface); the answer is cached per tet face.
     `crack_lines`: where a crack face meets the outer surface, a thin line (render/crack_lines.py),
     so that cracks show where the pieces stay together (a held pane's sectors, a crack that did not
     separate); its geometry is cached per body until a fracture changes the body."""
@@ -173,6 +173,7 @@ class SceneView:
         self.looks = material_looks(world)
         size = float(np.ptp(self._rest_tris.reshape(-1, 3), axis=0).max()) if len(self._rest_tris) else 1.0
         self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
+        self._rest = RestSurface(self._rest_tris)  # indexed once: asked after every fracture event
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self._surfaces = SurfaceCache()
         self.crack_lines = crack_lines
@@ -193,7 +194,7 @@ class SceneView:
         if todo.size:
             first = np.unique(fid[todo], return_index=True)[1]  # split faces share their tet face
             rows = todo[first]
-            self._outer[fid[rows]] = on_surface(self._rest_tris, mesh.verts[mesh.faces[rows]], self._tol)
+            self._outer[fid[rows]] = self._rest.covers(mesh.verts[mesh.faces[rows]], self._tol)
         return self._outer[fid] == 1
 
     def _surface_parts(self, mesh, mat: np.ndarray) -> list[MeshPart]:
