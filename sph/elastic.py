@@ -64,8 +64,8 @@ def stable_time_step(G0: np.ndarray, materials, cfl: float) -> float:
 def _k_accel(
     x: nd_v3, x0: nd_v3, vol: nd_f, mat: nd_i32, Lrot: nd_m3, H: nd_m3, C: nd_m6, off: nd_i32, idx: nd_i32,
     d: nd_v3, q: nd_v6, w: nd_f, r: nd_v3, F: nd_m3, R: nd_m3, gradu: nd_m3, strain: nd_m3, stress: nd_m3,
-    energy: nd_f, estab: nd_f, P: nd_m3, tr_off: nd_i32, tr_entry: nd_i32, tr_src: nd_i32, force: nd_v3,
-    mass: nd_f, fixed: nd_i32, a: nd_v3, g: ti.math.vec3,
+    energy: nd_f, estab: nd_f, P: nd_m3, tr_off: nd_i32, tr_entry: nd_i32, tr_src: nd_i32, tr_d: nd_v3,
+    force: nd_v3, mass: nd_f, fixed: nd_i32, a: nd_v3, g: ti.math.vec3,
     n: ti.i32, quad: ti.template(), stab: ti.template(), green: ti.template(),
 ):
     """Stress and accelerations at the current positions (no time step)."""
@@ -73,7 +73,7 @@ def _k_accel(
         stress_at(i, x, x0, vol, mat, Lrot, H, C, off, idx, d, q, w, r, F, R, gradu, strain, stress, energy,
                   estab, P, quad, stab, green)
     for j in range(n):
-        f = force_at(j, P, d, r, off, tr_off, tr_entry, tr_src, stab)
+        f = force_at(j, P, d, r, off, tr_off, tr_entry, tr_src, tr_d, stab)
         force[j] = f
         acc = ti.Vector([0.0, 0.0, 0.0])
         if fixed[j] == 0:
@@ -85,8 +85,8 @@ def _k_accel(
 def _k_step(
     x: nd_v3, x0: nd_v3, vol: nd_f, mat: nd_i32, Lrot: nd_m3, H: nd_m3, C: nd_m6, off: nd_i32, idx: nd_i32,
     d: nd_v3, q: nd_v6, w: nd_f, r: nd_v3, F: nd_m3, R: nd_m3, gradu: nd_m3, strain: nd_m3, stress: nd_m3,
-    energy: nd_f, estab: nd_f, P: nd_m3, tr_off: nd_i32, tr_entry: nd_i32, tr_src: nd_i32, force: nd_v3,
-    mass: nd_f, fixed: nd_i32, a: nd_v3, v: nd_v3, g: ti.math.vec3, dt: float, c: float,
+    energy: nd_f, estab: nd_f, P: nd_m3, tr_off: nd_i32, tr_entry: nd_i32, tr_src: nd_i32, tr_d: nd_v3,
+    force: nd_v3, mass: nd_f, fixed: nd_i32, a: nd_v3, v: nd_v3, g: ti.math.vec3, dt: float, c: float,
     n: ti.i32, quad: ti.template(), stab: ti.template(), green: ti.template(),
 ):
     """One velocity-Verlet step with implicit mass-proportional damping c (module doc)."""
@@ -101,7 +101,7 @@ def _k_step(
         stress_at(i, x, x0, vol, mat, Lrot, H, C, off, idx, d, q, w, r, F, R, gradu, strain, stress, energy,
                   estab, P, quad, stab, green)
     for j in range(n):  # forces, then kick (dt/2)
-        f = force_at(j, P, d, r, off, tr_off, tr_entry, tr_src, stab)
+        f = force_at(j, P, d, r, off, tr_off, tr_entry, tr_src, tr_d, stab)
         force[j] = f
         if fixed[j] == 0:
             acc = f / mass[j] + g
