@@ -11,6 +11,7 @@ from rigid.kernel_math import (
     mat3,
     q_to_mat,
     vec3,
+    vec4,
 )
 
 
@@ -95,7 +96,9 @@ def k_grid(s: ti.template(), ns: ti.i32, margin: float):
     ti.loop_config(serialize=True)
     for i in range(ns):
         h = s.bp_hash[i]
-        s.grid_entry[s.grid_start[h] + s.grid_fill[h]] = i
+        at = s.grid_start[h] + s.grid_fill[h]
+        s.grid_entry[at] = i
+        s.grid_reach[at] = vec4(s.bp_x[i], s.bp_radius[i] + s.bp_sweep[i])
         s.grid_fill[h] += 1
     # a body's spheres hold consecutive ids (RigidWorld appends a body's spheres together and keeps
     # their order when it removes bodies): the narrow phase skips a sphere's own body by its range

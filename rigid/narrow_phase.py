@@ -108,6 +108,12 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                     j = s.grid_entry[last - 1 - t]
                     if j < own_end:
                         break
+                    # the pair cannot touch when the centres are farther apart than both reaches and the
+                    # margin: read from the bucket's own copy, in sequence (most candidates stop here)
+                    xr = s.grid_reach[last - 1 - t]
+                    far = (ri + swi + margin + xr[3]) * (1.0 + 1e-5)
+                    if (xi - xr.xyz).norm_sqr() > far * far:
+                        continue
                     cj = s.bp_cell[j]
                     if cj[0] == cn[0] and cj[1] == cn[1] and cj[2] == cn[2]:
                         bj = s.bp_body[j]

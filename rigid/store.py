@@ -119,7 +119,8 @@ class RigidStore:
         self.grid_start = ti.field(ti.i32)  # (H+1,) -: CSR offsets into grid_entry
         dense(self.grid_size + 1, self.grid_start)
         self.grid_entry = ti.field(ti.i32)  # (NS,) -: sphere ids sorted by bucket, then id
-        dense(ns, self.grid_entry)
+        self.grid_reach = ti.math.vec4.field()  # (NS,) m: that sphere's centre and radius + sweep, in entry order
+        dense(ns, self.grid_entry, self.grid_reach)
 
     def _colliders(self, dense, ncol: int) -> None:
         """Per static collider (plane or oriented box)."""
