@@ -413,8 +413,7 @@ class CorotatedSPH:
         self.tr_offset = _nd(i32, tr_off.astype(np.int32))  # (n+1,) 1: offsets of pairs with j as neighbour
         self.tr_entry = _nd(i32, pad(order_tr, np.int32))  # (nnz,) 1: entry e of pair (i, j) in i's list
         self.tr_src = _nd(i32, pad(own[order_tr], np.int32))  # (nnz,) 1: owner i of that entry
-        # the force pass reads d in this order: gathered from nbr_d it missed the cache on every pair
-        self.tr_d = _nd(v3, pad(rest["d"][order_tr], np.float64))  # (nnz,) 1/m: d_ij of that entry
+        self.tr_d = _nd(v3, pad(rest["d"][order_tr], np.float64))  # (nnz,) 1/m: d_ij in this order (force pass)
         self.material_C = _nd(mat6, np.stack(Cs))  # (n_mat,) Pa: Voigt stiffness
         # changing data
         z3 = np.zeros((n, 3))
