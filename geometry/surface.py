@@ -214,9 +214,8 @@ class RestSurface:
         n = np.cross(self.tris[:, 1] - self.tris[:, 0], self.tris[:, 2] - self.tris[:, 0])
         self.area2 = np.linalg.norm(n, axis=1)  # (T,) m^2: twice each triangle's area
         self.normal = n / np.maximum(self.area2, 1e-300)[:, None]  # (T, 3) -: unit normals
-        # (m) farthest corner from its triangle's centre: a query centre on a triangle is this near its centre
-        self.reach = float(np.max(np.linalg.norm(self.tris - self.centre[:, None, :], axis=2))) if len(self.tris) \
-            else 0.0
+        corner = np.linalg.norm(self.tris - self.centre[:, None, :], axis=2)
+        self.reach = float(corner.max(initial=0.0))  # m: a point on a triangle lies this near its centre
         self._tree = cKDTree(self.centre) if len(self.tris) else None
 
     def covers(self, tris: np.ndarray, tol: float) -> np.ndarray:

@@ -158,10 +158,12 @@ class SceneView:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
         self.colors = colors
-        self._rest_tris = rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3))
+        # the objects' surface at rest, indexed once: asked after every fracture event
+        self._rest = RestSurface(rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3)))
+        rest = self._rest.tris
         # room for the crack faces and debris of the first events: a larger buffer is a new Taichi
         # field, and every render kernel recompiles for it (about 2 s)
-        self.scene = RenderScene(tri_capacity=SURFACE_HEADROOM * len(self._rest_tris) + 2,
+        self.scene = RenderScene(tri_capacity=SURFACE_HEADROOM * len(rest) + 2,
                                  particle_capacity=world.physical_count if "debris" in world.stages else 0,
                                  lighting=Lighting.studio())
         self._version = -1
@@ -171,14 +173,12 @@ class SceneView:
                 v, f = ground_quad(height=col.point[1], half_size=2.0)
                 self._floor.append(MeshPart(v, f, body=-1, colors=FLOOR_COLOR, roughness=0.9))
         self.looks = material_looks(world)
-        size = float(np.ptp(self._rest_tris.reshape(-1, 3), axis=0).max()) if len(self._rest_tris) else 1.0
+        size = float(np.ptp(rest.reshape(-1, 3), axis=0).max()) if len(rest) else 1.0
         self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
-        self._rest = RestSurface(self._rest_tris)  # indexed once: asked after every fracture event
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self._surfaces = SurfaceCache()
         self.crack_lines = crack_lines
-        edge = np.median(np.linalg.norm(self._rest_tris - np.roll(self._rest_tris, 1, axis=1), axis=2)) \
-            if len(self._rest_tris) else 0.0
+        edge = np.median(np.linalg.norm(rest - np.roll(rest, 1, axis=1), axis=2)) if len(rest) else 0.0
         self._line_width, self._line_lift = LINE_WIDTH_REL * edge, LIFT_REL * edge  # m
         self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
         self.refresh()
