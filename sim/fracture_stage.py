@@ -283,6 +283,7 @@ def contact_in_reference(world, body: int, other: int, point_w: np.ndarray, norm
 def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     """Algorithm 1 at the impact point; returns the ImpactAnalysis (cracks in the reference frame;
     its particle indices are rows of `analysed_rows`)."""
+    from geometry.crack_merge import merge_coincident
     from sph.cracks import ImpactSpec, analyse_impact, tet_edge
 
     taken = take_body(world, body) if taken is None else taken
@@ -306,6 +307,9 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     if len(np.unique(ps.material[ids])) > 1:
         result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks,
                                          result.field)
+    # planes closer than a particle are one crack (geometry/crack_merge.py): the edge of the particle at each point
+    at = [ids[int(np.argmin(((ps.centroid[ids] - c.point) ** 2).sum(axis=1)))] for c in result.cracks]
+    result.cracks = merge_coincident(result.cracks, tet_edge(ps.volume[at]), world.bodies[body].history)
     return result
 
 

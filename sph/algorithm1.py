@@ -15,6 +15,7 @@ vectorised over the analysed neighbourhood (tens to a few hundred particles).
     onset_energy       17          the energy held when the peak tension reaches the strength
     plug_energy        17          what a striker that perforates a wall leaves in it (Recht & Ipson)
     shatter_level      17          where the released energy exceeds U_limit (r_inner, per particle size)
+    thin_axis          6           the direction a crack runs through whole (a thin wall's)
     crack_sides        6           the side of each fired group's half-disc
     arrest_lengths     17          how far fracture mechanics drives each crack (beyond the paper)
     crack_regions      output      the half-disc crack of each fired group
@@ -279,14 +280,22 @@ def angular_groups(nb: Neighbourhood, members: np.ndarray, volume: np.ndarray, N
     return Groups(theta, grp, w, wsum, cnt, ang, bis)
 
 
+def thin_axis(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray | None:
+    """(3,) the direction across which the struck wall is thin, or None for a thick body: a plate's
+    normal n; a beam's or an edge-struck thin body's short in-plane axis (the disc struck on its rim)."""
+    if kind == "plate":
+        return n
+    if kind == "beam" or (kind == "halfspace" and wall.width < SLENDER_WIDTH * wall.length):
+        return wall.frame[1]
+    return None
+
+
 def plane_stress(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray:
     """(3,3) projector onto the loaded directions where the wall is thin: across a plate (n), or
-    across a thin body struck on its edge (its thin in-plane axis); the identity otherwise."""
-    if kind == "plate":  # thin-plate theory (sigma_iz = 0); drops the out-of-plane noise too
-        return np.eye(3) - np.outer(n, n)
-    if kind == "halfspace" and wall.width < SLENDER_WIDTH * wall.length:
-        return np.eye(3) - np.outer(wall.frame[1], wall.frame[1])
-    return np.eye(3)
+    across a thin body struck on its edge (its thin in-plane axis); the identity otherwise (a beam
+    has its own section stress)."""
+    t = None if kind == "beam" else thin_axis(kind, wall, n)
+    return np.eye(3) if t is None else np.eye(3) - np.outer(t, t)
 
 
 def group_mean(values: np.ndarray, gr: Groups, N: int) -> np.ndarray:
@@ -455,17 +464,27 @@ def shatter_level(U_rel: float, rho: float, Gc: float, e_near: float, V_near: fl
     return (64.0 * math.pi * rho**9 * u_lim * weight / (315.0 * U_rel)) ** (1.0 / 3.0) / (rho * rho)
 
 
-def crack_sides(n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray, N: int) -> np.ndarray:
+def crack_sides(n: np.ndarray, gr: Groups, pdirs: np.ndarray, fired: np.ndarray, N: int,
+                thin: np.ndarray | None = None) -> np.ndarray:
     """Step 6, (N,3): the side of each fired group's half-disc, its bisector projected onto the crack
     plane (the inward normal if the bisector is within ~6 degrees of the crack normal); zeros for a
-    full disc (N = 1) or a group that did not fire."""
+    full disc (N = 1) or a group that did not fire. Where the wall is thin across `thin` (`thin_axis`),
+    a crack runs through the whole thickness: the side has no component across it, so the half-disc
+    holds every depth at P (a side tilted through a disc's thickness left an uncut ligament at P's
+    face, and two groups with the same crack plane cut the same wall twice)."""
     sides = np.zeros((N, 3))
     if N == 1:
         return sides
     for k in np.flatnonzero(fired):
         mk = pdirs[k]
+        across = None
+        if thin is not None:
+            t_in = thin - np.dot(thin, mk) * mk  # the thin direction within the crack plane
+            across = t_in / np.linalg.norm(t_in) if np.linalg.norm(t_in) >= SIDE_MIN else None
         for cand_dir in (gr.bisector[k], n):
             s = cand_dir - np.dot(cand_dir, mk) * mk
+            if across is not None:
+                s = s - np.dot(s, across) * across
             if np.linalg.norm(s) >= SIDE_MIN:
                 sides[k] = s / np.linalg.norm(s)
                 break

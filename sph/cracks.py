@@ -432,7 +432,7 @@ def analyse_impact(
     shatter = ShatterField(support=nb.rho, level=level, edge=nb.e_near, r_plug=r_plug)
     r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
     u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
-    sides = alg.crack_sides(n, gr, pdirs, fired, N)
+    sides = alg.crack_sides(n, gr, pdirs, fired, N, alg.thin_axis(wf.kind, nb.wall, n))
     arrest = alg.arrest_lengths(wf, nb, C, E1, nu1, ell, Pi, pdirs, sides, fired, F, Gc, L_body)
     r_out = alg.run_lengths(r_out, arrest, U_av, fired, Gc, B, nb.rho, L_body)
     cracks = alg.crack_regions(P, pdirs, fired, sides, r_out, r_in, r_crush, shatter)

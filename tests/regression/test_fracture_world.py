@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import tomllib
 
+from geometry.particles import tet_edge
 from scenes.loader import scene_from_dict
 from sim.fracture_stage import analyse, held_particles
 from sim.world import World
@@ -135,9 +136,12 @@ def test_a_crack_changes_direction_in_the_other_material(turn_deg):
             assert c.r_inner == 0.0 and c.r_crush == 0.0 and c.shatter is None
             parent = next(s for s in stopped if c.source.startswith(s.source + "."))
             turned.append(math.degrees(math.acos(min(1.0, abs(float(c.normal @ parent.normal))))))
-            # the stopped crack ends at the crossing, which lies on its plane
-            assert abs(float((c.point - parent.point) @ parent.normal)) < 1e-9
-            assert parent.r_outer <= np.linalg.norm(c.point - parent.point) + 1e-9
+            # the stopped crack ends at the crossing, which lies on its plane as analysed; a crack within a
+            # tet edge of an earlier one's plane is put on it (geometry/crack_merge.py), which moves either
+            # less than an edge
+            edge = tet_edge(float(ps.volume.max()))
+            assert abs(float((c.point - parent.point) @ parent.normal)) < edge
+            assert parent.r_outer <= np.linalg.norm(c.point - parent.point) + edge
         # the slate opens on its cleavage (4 MPa across it against 15 MPa along it), turned with the disc
         assert max(abs(float(c.normal @ cleavage)) for c in crossing) > math.cos(math.radians(1.0))
         assert max(turned) > 10.0, turned  # the black half's own analysis deflects the crack
