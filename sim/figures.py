@@ -53,7 +53,7 @@ FIGURES = (
            "break again when they land in turn (the cracks of a landing shard run through it: "
            "docs/decisions.md, \"Crack arrest\"): five large pieces each, plus chips and single "
            "particles. Basic removal gives jagged cracks along tet faces and subdivision straight ones, as "
-           "in the paper; our adaptive pot does not give more pieces than the basic one (7 against 14; the "
+           "in the paper; our adaptive pot does not give more pieces than the basic one (8 against 14; the "
            "paper: 14 against 6): its first shatter zone (2.7 mm) holds no particle to crush finer, and "
            "the basic pot's later landings free more whole particles."),
     Figure(8, "The same scene of falling pot for anisotropic material with different kernel. The "
@@ -62,7 +62,7 @@ FIGURES = (
             Row("pot_aniso_high", "kernel x3 along the surface (paper: right)")),
            "The kernel changes where the cracks run: x1/5 along the surface, the wall opens along long "
            "cracks into three large pieces and 24 grains; x3, the Y of the first landing and the pieces' "
-           "own landings give five large pieces and a few chips. The paper shows both pots broken, with "
+           "own landings give eight large pieces and a few chips. The paper shows both pots broken, with "
            "different crack directions, and gives no counts for Fig. 8."),
     Figure(9, "A ball collapses through glass window, breaks into a hole and crack propagates without "
               "destroying the global structure. Fracture surface normal is the same while different "
@@ -77,14 +77,14 @@ FIGURES = (
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
-           "each other (102 large pieces); our count (688 against 587) is mostly the grains of crushed "
-           "cores where shards strike each other. No zoom-in from above: the sheet keeps one camera per "
+           "each other (90 large pieces); our count (657 against 587) is mostly the grains of "
+           "crushed cores where shards strike each other. No zoom-in from above: the sheet keeps one camera per "
            "scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor (62 pieces "
+           "paper). The ball splits it where it lands and the parts break again on the floor (63 pieces "
            "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
            "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
@@ -94,8 +94,9 @@ FIGURES = (
            "contact across the diameter, as a stone disc squeezed on its rim does, and where the crack "
            "reaches the slate it turns onto the slate's cleavage (4 MPa across it against 15 along it, at "
            "45 degrees to the diameter) and runs on with the energy it had left: the two materials crack "
-           "in different directions in one blow. Three large pieces and chips: 40 pieces against the "
-           "paper's 87 (fewer tets than the paper's 3,880; the count swings with the tet size)."),
+           "in different directions in one blow; the disc parts along the slate's crack and the pieces "
+           "crack again on the floor. Three large pieces, 4 in all against the paper's 87: no chips (two "
+           "crack planes closer than a particle are one, docs/decisions.md)."),
 )
 
 
