@@ -36,9 +36,11 @@ def _coincides(crack: Crack, other: Crack, edge: float) -> bool:
 
 
 def _on_plane(crack: Crack, other: Crack) -> Crack:
-    """`crack` moved onto the plane of `other`: its normal, its point projected (the other's point itself
-    when they share it, so both planes are the same to the bit)."""
-    n = other.normal
+    """`crack` moved onto the plane of `other`: its normal (turned to `crack`'s side: a normal's sign only
+    orients the plane, and the analysis' own orientation is kept), its point projected (the other's point
+    itself when they share it, so both planes are the same to the bit: the signed distances are negated
+    exactly)."""
+    n = other.normal if float(np.dot(crack.normal, other.normal)) >= 0.0 else -other.normal
     p = crack.point - float(np.dot(crack.point - other.point, n)) * n
     if np.array_equal(crack.point, other.point):
         p = other.point

@@ -10,6 +10,7 @@ planes.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -65,7 +66,7 @@ def test_overlapping_half_discs_share_one_plane_and_leave_no_sliver(box):
     cracks = [Crack(point=P_MID, normal=tilted(0.0), r_outer=1.0, side=[1.0, 0.0, 0.0]),
               Crack(point=P_MID, normal=tilted(2.0), r_outer=1.0, side=[0.0, 1.0, 0.0])]
     merged = merge_coincident(cracks, [EDGE, EDGE])
-    assert len(merged) == 2 and np.array_equal(merged[1].normal, merged[0].normal)
+    assert len(merged) == 2 and np.array_equal(merged[1].normal, merged[0].normal)  # both normals +z
     assert merged[1].side == pytest.approx([0.0, 1.0, 0.0])
     _, raw = apply_cracks(box, cracks, mode="subdivision")
     _, rep = apply_cracks(box, merged, mode="subdivision")
@@ -98,6 +99,8 @@ def test_a_crack_near_an_earlier_events_crack_takes_its_plane():
     assert np.array_equal(moved.normal, old.normal)
     assert moved.point == pytest.approx([0.1, 0.0, 0.0], abs=1e-15)  # projected onto the old plane
     assert moved.side == pytest.approx([1.0, 0.0, 0.0])
+    (turned,) = merge_coincident([replace(new, normal=-new.normal)], [0.01], history=[old])
+    assert np.array_equal(turned.normal, -old.normal)  # the same plane, the crack's own orientation kept
     far = Crack(point=[0.1, 0.0, 0.05], normal=[0.0, 0.0, 1.0], r_outer=0.2)  # a parallel plane 5 cm off
     assert merge_coincident([far], [0.01], history=[old])[0] is far
 
