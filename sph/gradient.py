@@ -105,28 +105,30 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
         out[owner, slot] = vals
         return out
 
-    Vg = pad(vol[:, None] * g)  # (m, K, 3) plain SPH weights V_j grad W (Eq. 7, 10)
-    d = Vg
-    if order >= 1:
-        Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi))  # sum_j V_j grad W (x) xi
-        scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
-        det = np.linalg.det(Bm)
-        ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
-        L = np.tile(np.eye(3), (m, 1, 1))
-        if ok.any():
-            L[ok] = np.linalg.inv(Bm[ok])
-        used[ok] = 1
-        d = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
-    if order == 2:
-        w = pad(vol * k)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
-        pb = pad(_quad_basis(xi / srad[owner, None]))  # (m, K, 9)
-        ok2 = cnt >= 9
-        if ok2.any():
-            Mq = np.matmul(pb[ok2].transpose(0, 2, 1), w[ok2][:, :, None] * pb[ok2])
-            Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
-            c = np.matmul(pb[ok2], Mi)[:, :, :3] * (w[ok2] / srad[ok2, None])[:, :, None]
-            d = d.copy()
-            d[ok2] = c
-            used[ok2] = 2
+    # members whose quadratic fit is taken (order 2, at least 9 neighbours for the 9 monomials); the
+    # others take Bonet-Lok (order >= 1) or plain SPH weights
+    quad = cnt >= 9 if order == 2 else np.zeros(m, dtype=bool)
+    rest = ~quad
+    d = np.empty((m, K, 3))
+    if rest.any():
+        Vg = pad(vol[:, None] * g)[rest]  # plain SPH weights V_j grad W (Eq. 7, 10)
+        d[rest] = Vg
+        if order >= 1:
+            Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi)[rest])  # sum_j V_j grad W (x) xi
+            scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
+            det = np.linalg.det(Bm)
+            ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
+            L = np.tile(np.eye(3), (len(Bm), 1, 1))
+            if ok.any():
+                L[ok] = np.linalg.inv(Bm[ok])
+            used[np.flatnonzero(rest)[ok]] = 1
+            d[rest] = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
+    if quad.any():
+        w = pad(vol * k)[quad]  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
+        pb = pad(_quad_basis(xi / srad[owner, None]))[quad]  # (q, K, 9)
+        Mq = np.matmul(pb.transpose(0, 2, 1), w[:, :, None] * pb)
+        Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
+        d[quad] = np.matmul(pb, Mi[:, :, :3]) * (w / srad[quad, None])[:, :, None]  # the linear terms
+        used[quad] = 2
     grad = np.matmul(pad(du).transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
     return grad, used
