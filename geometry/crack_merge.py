@@ -5,8 +5,8 @@ analysis there (Sect. 6); groups loaded by the same stress (a disc struck on its
 tension runs across the same diameter), or two analyses at neighbouring crossings, give crack planes a
 degree or two apart through nearly the same point. Cut as two planes, the wedge between them is thinner
 than a particle: every tet in it is cut twice and the slivers between the planes lose all their links,
-tens of one-particle "fragments" that are the discretisation, not the material (the Tai Chi scene's
-count changed from 16 to 303 between tet sizes 7.8 and 8.6 mm by them). A crack plane is resolved to a
+tens of one-particle "fragments" that are the discretisation, not the material (they made the Tai Chi
+scene's count swing from 16 to 303 between tet sizes of 7.8 and 8.6 mm). A crack plane is resolved to a
 particle's size, so a crack whose region lies within one tet edge of an earlier crack's plane (this
 event's, or one its body was cut by before) over its whole reach is put on that plane: the same cut
 where they overlap, the new crack's region beyond it; where one of the event's regions holds the other
