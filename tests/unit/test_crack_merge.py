@@ -76,6 +76,7 @@ def test_overlapping_half_discs_share_one_plane_and_leave_no_sliver(box):
 def test_distinct_planes_stay_distinct(box):
     cracks = disc_and_half(30.0)
     merged = merge_coincident(cracks, [EDGE, EDGE])
+    assert len(merged) == 2
     assert all(np.array_equal(a.normal, b.normal) for a, b in zip(merged, cracks))
     assert all(np.array_equal(a.point, b.point) for a, b in zip(merged, cracks))
 
