@@ -211,6 +211,7 @@ class RenderScene:
         self.surface_version = 0
         self.generation = 0
         self._trees: dict[str, ti.SNodeTree | None] = dict(surf=None, pose=None, part=None, line=None)
+        self._retired: list[ti.SNodeTree] = []  # trees replaced by larger ones, destroyed at release()
         self._bounds = None
         self.cap = dict(surf=0, pose=0, part=0, line=0)
         self._alloc("surf", tri_capacity)
@@ -261,7 +262,10 @@ class RenderScene:
         first = {"surf": "corner_body", "pose": "pose_x", "part": "particle_r", "line": "line_color"}[kind]
         getattr(self, first).fill(0)
         if old is not None:
-            old.destroy()
+            # kept until release(): destroying a tree clears every compiled kernel of the program
+            # (Taichi 1.7.4, SNodeTree.destroy), and the next frame recompiled them all, simulation and
+            # rendering (about 1 s a time in Pots' drawn frames)
+            self._retired.append(old)
             self.generation += 1
         if kind == "pose":
             q = np.zeros((cap, 4), dtype=numpy_float())
@@ -274,6 +278,9 @@ class RenderScene:
             if tree is not None:
                 tree.destroy()
             self._trees[kind] = None
+        for tree in self._retired:
+            tree.destroy()
+        self._retired.clear()
         self._bounds = None
         self.n_tris = self.n_bodies = self.n_particles = self.n_lines = 0
 

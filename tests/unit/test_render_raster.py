@@ -258,9 +258,15 @@ def test_fragments_follow_their_bodies(scene, raster):
 
 
 def test_capacity_growth(scene, raster):
-    """More triangles than the capacity rebuild the buffers (generation + 1) and still draw correctly."""
+    """More triangles than the capacity rebuild the buffers (generation + 1) and still draw correctly;
+    no compiled kernel is lost (destroying the old field tree would clear every compiled kernel of the
+    program, Taichi 1.7.4, and the next frame would recompile them all)."""
+    from taichi.lang import impl
+
     cam = _front_camera()
     _reset(scene, _head_on_light(cam))
+    raster.render(scene, cam)
+    compiled = impl.get_runtime().get_num_compiled_functions()
     gen, ver = scene.generation, scene.surface_version
     n = scene.cap["surf"] + 1
     assert n > MIN_CAPACITY
@@ -269,6 +275,7 @@ def test_capacity_growth(scene, raster):
     tris = centres[:, None, :] + np.array([[-0.01, -0.01, 0], [0.01, -0.01, 0], [0, 0.01, 0]])
     scene.set_surfaces([MeshPart(tris.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3), -1, colors=(1, 0, 0))])
     assert scene.generation == gen + 1 and scene.surface_version == ver + 1 and scene.n_tris == n
+    assert impl.get_runtime().get_num_compiled_functions() >= compiled
     img = raster.render(scene, cam)
     px, _, _ = cam.project(centres, W, H)
     hit = np.all(img[px[:, 1].astype(int), px[:, 0].astype(int)] == _rgb([1, 0, 0]), axis=-1)
