@@ -72,10 +72,9 @@ def merge_coincident(cracks: Sequence[Crack], edges: Sequence[float], history: S
     kept: list[Crack] = []
     for crack, edge in zip(cracks, edges):
         joined = None
-        for other in (*history, *kept):
+        for k, other in [(None, h) for h in history] + list(enumerate(kept)):  # k: index in kept, None: history
             if _coincides(crack, other, float(edge)):
                 crack = _on_plane(crack, other)
-                k = next((k for k, o in enumerate(kept) if o is other), None)
                 joined = None if k is None else _holder(crack, other, float(edge))
                 if joined is not None:
                     kept[k] = joined

@@ -292,11 +292,15 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     point_w = np.asarray(impact["point"], dtype=np.float64)
     ref = impact.get("reference") or contact_in_reference(world, body, impact["other"], point_w, impact["normal"])
     point = ref["point"]
-    nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
+
+    def nearest_to(p: np.ndarray) -> int:
+        return int(ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - p, axis=1)))])
+
+    nearest = nearest_to(point)
     # the struck surface's own point and normal, not the collision spheres' (surface_frame)
     edge = tet_edge(float(ps.volume[nearest]))
     point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"])
-    nearest = ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - point, axis=1)))]
+    nearest = nearest_to(point)
     material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
@@ -308,7 +312,7 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
         result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks,
                                          result.field)
     # planes closer than a particle are one crack (geometry/crack_merge.py): the edge of the particle at each point
-    at = [ids[int(np.argmin(((ps.centroid[ids] - c.point) ** 2).sum(axis=1)))] for c in result.cracks]
+    at = [nearest_to(c.point) for c in result.cracks]
     result.cracks = merge_coincident(result.cracks, tet_edge(ps.volume[at]), world.bodies[body].history)
     return result
 
