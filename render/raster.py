@@ -36,6 +36,7 @@ render/raster_core.py, steps 2-4 in render/raster_light.py.
 import numpy as np
 import taichi as ti
 
+from core import field_pool
 from core.errors import ConfigError
 from render.camera import Camera, box_corners
 from render.raster_core import (
@@ -170,6 +171,22 @@ def check_size(width: int, height: int) -> tuple[int, int]:
     return int(width), int(height)
 
 
+def _pixel_buffers(height: int, width: int) -> dict:
+    """A new field tree of one image size's buffers: {attribute name: field}."""
+    fb = ti.FieldsBuilder()
+    f = dict(
+        pix_key=ti.field(ti.i64),  # (H, W) -: (depth << 32) | (1 + primitive id) of opaque ones, 0 = none
+        pix_key_t=ti.field(ti.i64),  # (H, W) -: the same for the nearest see-through triangle
+        pix_rgb=ti.math.vec3.field(),  # (H, W) -: shaded linear RGB before the edge filter
+        pix_id=ti.field(ti.i32),  # (H, W) -: a hash of the primitives drawn there (edges differ)
+        shadow=ti.field(float),  # (S, S) m: largest caster height towards the key light per texel
+    )
+    fb.dense(ti.ij, (height, width)).place(f["pix_key"], f["pix_key_t"], f["pix_rgb"], f["pix_id"])
+    fb.dense(ti.ij, (SHADOW_TEXELS, SHADOW_TEXELS)).place(f["shadow"])
+    fb.finalize()
+    return f
+
+
 class RasterRenderer:
     """Software renderer (module docstring): `render(scene, camera)` -> (H, W, 3) uint8, row 0 at the top."""
 
@@ -177,22 +194,18 @@ class RasterRenderer:
 
     def __init__(self, width: int, height: int) -> None:
         self.width, self.height = check_size(width, height)
-        fb = ti.FieldsBuilder()
-        self.pix_key = ti.field(ti.i64)  # (H, W) -: (depth << 32) | (1 + primitive id) of opaque ones, 0 = none
-        self.pix_key_t = ti.field(ti.i64)  # (H, W) -: the same for the nearest see-through triangle
-        self.pix_rgb = ti.math.vec3.field()  # (H, W) -: shaded linear RGB before the edge filter
-        self.pix_id = ti.field(ti.i32)  # (H, W) -: a hash of the primitives drawn there (edges differ)
-        fb.dense(ti.ij, (self.height, self.width)).place(self.pix_key, self.pix_key_t, self.pix_rgb, self.pix_id)
-        self.shadow = ti.field(float)  # (S, S) m: largest caster height towards the key light per texel
-        fb.dense(ti.ij, (SHADOW_TEXELS, SHADOW_TEXELS)).place(self.shadow)
-        self._tree = fb.finalize()
-        self.pix_key.fill(0)  # touch the tree: destroying one never touched makes the next one crash (Taichi 1.7.4)
+        self._key = ("raster", self.height, self.width)
+        self._buffers = field_pool.acquire(self._key, lambda: _pixel_buffers(self.height, self.width))
+        for name, f in self._buffers.items():
+            setattr(self, name, f)
         self.message = f"renderer: raster (Taichi software rasteriser, {self.width}x{self.height})"
 
     def release(self) -> None:
-        if self._tree is not None:
-            self._tree.destroy()
-            self._tree = None
+        """Give the pixel buffers back to core/field_pool.py (never destroyed: that clears every
+        compiled kernel of the program)."""
+        if self._buffers is not None:
+            field_pool.recycle(self._key, self._buffers)
+            self._buffers = None
 
     def _shadow_map(self, scene: RenderScene) -> tuple:
         """Render the key light's depth map over the casters' bounds; returns (lbasis, lmap) for the
@@ -224,7 +237,7 @@ class RasterRenderer:
 
     def render(self, scene: RenderScene, camera: Camera) -> np.ndarray:
         """Draw the scene's current buffers (call scene.update() after changing poses)."""
-        if self._tree is None:
+        if self._buffers is None:
             raise RuntimeError("RasterRenderer.render after release()")
         w, h = self.width, self.height
         aspect = w / h

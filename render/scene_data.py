@@ -15,9 +15,10 @@ A `RenderScene` holds Taichi buffers that both renderers (GGUI and the rasterise
   * lighting: one directional light, an ambient term and the background colour (`Lighting`).
 
 Buffers are allocated with spare capacity in one `ti.FieldsBuilder` tree per kind (surfaces, poses,
-particles, lines). Setting new surfaces (after a fracture) uploads them and bumps `surface_version`;
-a tree is rebuilt only when its capacity is exceeded (capacity doubles; `generation` counts rebuilds
-so renderers can drop caches). Nothing is allocated per frame: `update()` only runs the transform.
+particles, lines), taken from and given back to core/field_pool.py (never destroyed). Setting new
+surfaces (after a fracture) uploads them and bumps `surface_version`; a tree is replaced only when its
+capacity is exceeded (capacity doubles; `generation` counts replacements so renderers can drop caches).
+Nothing is allocated per frame: `update()` only runs the transform.
 """
 
 
@@ -27,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import taichi as ti
 
+from core import field_pool
 from core.errors import ConfigError
 from core.runtime import numpy_float
 from rigid.kernel_math import q_to_mat
@@ -196,6 +198,49 @@ def _k_copy_particles(n: ti.i32, src_x: ti.template(), src_r: ti.template(), par
         particle_color[i] = color
 
 
+def _make_buffers(kind: str, cap: int) -> dict:
+    """A new field tree of one kind of RenderScene buffers for `cap` items: {attribute name: field}."""
+    vec3, vec4 = ti.math.vec3, ti.math.vec4
+    fb = ti.FieldsBuilder()
+    if kind == "surf":
+        f = dict(
+            corner_ref=vec3.field(),  # (3T,) m: corner position in its body's reference frame
+            corner_body=ti.field(ti.i32),  # (3T,) -: body id of the corner, -1 = static world geometry
+            corner_color=vec3.field(),  # (3T,) -: linear RGB in [0, 1]
+            corner_look=ti.math.vec2.field(),  # (3T,) -: (roughness, opacity) of the corner's part
+            corner_x=vec3.field(),  # (3T,) m: world position (changing, written by update())
+            corner_n=vec3.field(),  # (3T,) -: unit world normal of the corner's face (changing)
+        )
+        n = 3 * cap
+    elif kind == "pose":
+        f = dict(
+            pose_x=vec3.field(),  # (B,) m: world position of the body's centre of mass
+            pose_q=vec4.field(),  # (B,) -: unit quaternion w-x-y-z, body frame -> world
+            pose_ref_com=vec3.field(),  # (B,) m: centre of mass in reference coordinates
+        )
+        n = cap
+    elif kind == "part":
+        f = dict(
+            particle_x=vec3.field(),  # (P,) m: world position
+            particle_r=ti.field(float),  # (P,) m: radius
+            particle_color=vec3.field(),  # (P,) -: linear RGB in [0, 1]
+        )
+        n = cap
+    elif kind == "line":
+        f = dict(
+            line_x=vec3.field(),  # (2L,) m: segment end points, segment j = (2j, 2j + 1)
+            line_color=vec3.field(),  # (2L,) -: linear RGB per end point (both ends equal)
+        )
+        n = 2 * cap
+    else:
+        f = dict(_bounds=vec3.field())  # (2,) m: lo, hi of the last body_bounds query
+        n = 2
+    for field_ in f.values():
+        fb.dense(ti.i, n).place(field_)
+    fb.finalize()
+    return f
+
+
 class RenderScene:
     """Renderer-independent frame buffers (module docstring). Counts: n_tris, n_bodies, n_particles,
     n_lines; `surface_version` changes when surfaces are replaced, `generation` when a tree is rebuilt."""
@@ -210,10 +255,9 @@ class RenderScene:
         self.n_lines = 0
         self.surface_version = 0
         self.generation = 0
-        self._trees: dict[str, ti.SNodeTree | None] = dict(surf=None, pose=None, part=None, line=None)
-        self._retired: list[ti.SNodeTree] = []  # trees replaced by larger ones, destroyed at release()
+        self._buffers: dict[str, dict] = {}  # kind -> {attribute name: field} of its current tree
         self._bounds = None
-        self.cap = dict(surf=0, pose=0, part=0, line=0)
+        self.cap = dict(surf=0, pose=0, part=0, line=0, bounds=0)
         self._alloc("surf", tri_capacity)
         self._alloc("pose", body_capacity)
         self._alloc("part", particle_capacity)
@@ -221,51 +265,21 @@ class RenderScene:
 
     # ---- allocation ------------------------------------------------------------------------------
     def _alloc(self, kind: str, needed: int) -> None:
-        """(Re)build the tree of one kind with capacity >= needed (never shrinks)."""
+        """(Re)build the buffers of one kind with capacity >= needed (never shrinks). Buffers come from
+        and go back to core/field_pool.py: destroying a tree clears every compiled kernel of the
+        program (Taichi 1.7.4, SNodeTree.destroy), and the next frame recompiled them all, simulation
+        and rendering (about 1 s a time in Pots' drawn frames, 7 s for the next scene's first frame)."""
         cap = _pow2_capacity(max(needed, self.cap[kind]))
-        if self._trees[kind] is not None and cap == self.cap[kind]:
+        old, old_cap = self._buffers.get(kind), self.cap[kind]
+        if old is not None and cap == old_cap:
             return
-        old = self._trees[kind]
-        vec3, vec4 = ti.math.vec3, ti.math.vec4
-        fb = ti.FieldsBuilder()
-        if kind == "surf":
-            nc = 3 * cap
-            self.corner_ref = vec3.field()  # (3T,) m: corner position in its body's reference frame
-            self.corner_body = ti.field(ti.i32)  # (3T,) -: body id of the corner, -1 = static world geometry
-            self.corner_color = vec3.field()  # (3T,) -: linear RGB in [0, 1]
-            self.corner_look = ti.math.vec2.field()  # (3T,) -: (roughness, opacity) of the corner's part
-            self.corner_x = vec3.field()  # (3T,) m: world position (changing, written by update())
-            self.corner_n = vec3.field()  # (3T,) -: unit world normal of the corner's face (changing)
-            for f in (self.corner_ref, self.corner_body, self.corner_color, self.corner_look, self.corner_x,
-                      self.corner_n):
-                fb.dense(ti.i, nc).place(f)
-        elif kind == "pose":
-            self.pose_x = vec3.field()  # (B,) m: world position of the body's centre of mass
-            self.pose_q = vec4.field()  # (B,) -: unit quaternion w-x-y-z, body frame -> world
-            self.pose_ref_com = vec3.field()  # (B,) m: centre of mass in reference coordinates
-            for f in (self.pose_x, self.pose_q, self.pose_ref_com):
-                fb.dense(ti.i, cap).place(f)
-        elif kind == "part":
-            self.particle_x = vec3.field()  # (P,) m: world position
-            self.particle_r = ti.field(float)  # (P,) m: radius
-            self.particle_color = vec3.field()  # (P,) -: linear RGB in [0, 1]
-            for f in (self.particle_x, self.particle_r, self.particle_color):
-                fb.dense(ti.i, cap).place(f)
-        else:
-            self.line_x = vec3.field()  # (2L,) m: segment end points, segment j = (2j, 2j + 1)
-            self.line_color = vec3.field()  # (2L,) -: linear RGB per end point (both ends equal)
-            for f in (self.line_x, self.line_color):
-                fb.dense(ti.i, 2 * cap).place(f)
-        self._trees[kind] = fb.finalize()
+        new = field_pool.acquire(("render", kind, cap), lambda: _make_buffers(kind, cap))
+        for name, f in new.items():
+            setattr(self, name, f)
+        self._buffers[kind] = new
         self.cap[kind] = cap
-        # touch the new tree: destroying one never touched makes the next tree crash (Taichi 1.7.4)
-        first = {"surf": "corner_body", "pose": "pose_x", "part": "particle_r", "line": "line_color"}[kind]
-        getattr(self, first).fill(0)
         if old is not None:
-            # kept until release(): destroying a tree clears every compiled kernel of the program
-            # (Taichi 1.7.4, SNodeTree.destroy), and the next frame recompiled them all, simulation and
-            # rendering (about 1 s a time in Pots' drawn frames)
-            self._retired.append(old)
+            field_pool.recycle(("render", kind, old_cap), old)
             self.generation += 1
         if kind == "pose":
             q = np.zeros((cap, 4), dtype=numpy_float())
@@ -273,14 +287,10 @@ class RenderScene:
             self.pose_q.from_numpy(q)
 
     def release(self) -> None:
-        """Destroy every tree (the renderers must not draw this scene afterwards)."""
-        for kind, tree in self._trees.items():
-            if tree is not None:
-                tree.destroy()
-            self._trees[kind] = None
-        for tree in self._retired:
-            tree.destroy()
-        self._retired.clear()
+        """Give every buffer back to the pool (the renderers must not draw this scene afterwards)."""
+        for kind, buffers in self._buffers.items():
+            field_pool.recycle(("render", kind, self.cap[kind]), buffers)
+        self._buffers.clear()
         self._bounds = None
         self.n_tris = self.n_bodies = self.n_particles = self.n_lines = 0
 
@@ -424,10 +434,7 @@ class RenderScene:
         with `particles`, of the particles: one kernel and six numbers to the host (every frame is fine).
         lo > hi when there is nothing."""
         if self._bounds is None:
-            fb = ti.FieldsBuilder()
-            self._bounds = ti.math.vec3.field()  # (2,) m: lo, hi of the last body_bounds query
-            fb.dense(ti.i, 2).place(self._bounds)
-            self._trees["bounds"] = fb.finalize()
+            self._alloc("bounds", 2)
         big = 1e30
         self._bounds.from_numpy(np.array([[big] * 3, [-big] * 3], dtype=numpy_float()))
         _k_body_bounds(self.n_tris, self.n_particles if particles else 0, self.corner_x, self.corner_body,

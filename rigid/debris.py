@@ -16,7 +16,9 @@ carried by the particle set (alive, body -1); the store holds only positions and
 import numpy as np
 import taichi as ti
 
+from core import field_pool
 from core.errors import ConfigError
+from core.field_pool import pow2_at_least
 from core.runtime import numpy_float
 
 MIN_CAPACITY = 256  # debris slots allocated at least
@@ -24,18 +26,12 @@ PLANE, BOX = 0, 1  # collider kinds
 
 
 @ti.data_oriented
-class DebrisStore:
-    """Free debris spheres and the colliders they meet; capacity grows by doubling between frames."""
+class _DebrisArrays:
+    """The device side of a DebrisStore: its field tree and the kernels over it, recycled through
+    core/field_pool.py (never destroyed: that clears every compiled kernel of the program); the kernels
+    take `self`, so a recycled one keeps its compiled kernels."""
 
-    def __init__(self, capacity: int, gravity, colliders: list[dict]) -> None:
-        self.gravity = ti.math.vec3(*[float(g) for g in gravity])
-        self._colliders = list(colliders)
-        self.count = 0
-        self._tree = None
-        self._alloc(max(MIN_CAPACITY, int(capacity)), max(1, len(self._colliders)))
-        self._upload_colliders()
-
-    def _alloc(self, cap: int, ncol: int) -> None:
+    def __init__(self, cap: int, ncol: int) -> None:
         vec3, mat3 = ti.math.vec3, ti.math.mat3
         fb = ti.FieldsBuilder()
         # ---- debris: fixed data ----
@@ -56,96 +52,12 @@ class DebrisStore:
         fb.dense(ti.i, ncol).place(self.col_kind, self.col_x, self.col_n, self.col_rot, self.col_half,
                                    self.col_e, self.col_mu)
         self._tree = fb.finalize()
-        self.capacity = cap
-
-    def _upload_colliders(self) -> None:
-        n = max(1, len(self._colliders))
-        kind = np.zeros(n, np.int32)
-        x, nrm, half = np.zeros((n, 3)), np.tile([0.0, 1.0, 0.0], (n, 1)), np.ones((n, 3))
-        rot, e, mu = np.tile(np.eye(3), (n, 1, 1)), np.zeros(n), np.zeros(n)
-        for k, c in enumerate(self._colliders):
-            kind[k] = PLANE if c["type"] == "plane" else BOX
-            x[k] = c["x"]
-            if c["type"] == "plane":
-                nrm[k] = np.asarray(c["normal"], dtype=np.float64) / np.linalg.norm(c["normal"])
-            else:
-                half[k] = c["half"]
-                rot[k] = c.get("rot", np.eye(3))
-            e[k], mu[k] = c["restitution"], c["friction"]
-        fdt = numpy_float()
-        self.col_kind.from_numpy(kind)
-        for fld, a in ((self.col_x, x), (self.col_n, nrm), (self.col_rot, rot), (self.col_half, half),
-                       (self.col_e, e), (self.col_mu, mu)):
-            fld.from_numpy(a.astype(fdt))
-        self.n_colliders = len(self._colliders)
-
-    def release(self) -> None:
-        if self._tree is not None:
-            self._tree.destroy()
-            self._tree = None
-
-    def add(self, x, v, radius, particle) -> None:
-        """Append debris at world positions x (K,3) m with velocities v (K,3) m/s, radii (K,) m and
-        their particle indices (K,)."""
-        x, v = np.asarray(x, dtype=np.float64).reshape(-1, 3), np.asarray(v, dtype=np.float64).reshape(-1, 3)
-        r, pid = np.asarray(radius, dtype=np.float64).reshape(-1), np.asarray(particle, dtype=np.int32).reshape(-1)
-        k = len(x)
-        if not (v.shape == (k, 3) and r.shape == (k,) and pid.shape == (k,)):
-            raise ConfigError("debris.add", (x.shape, v.shape, r.shape, pid.shape), "matching (K,3), (K,3), (K,), (K,)")
-        if k == 0:
-            return
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v)) and np.all(r > 0.0)):
-            raise ConfigError("debris.add", "non-finite state or radius <= 0", "finite x, v; r > 0 m")
-        if self.count + k > self.capacity:
-            self._grow(self.count + k)
-        fdt = numpy_float()  # the kernel's arrays in the run's precision (no lossy cast inside)
-        self._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
-        self.count += k
-
-    def warm_kernels(self) -> None:
-        """Compile and load every kernel the store launches once debris exists, and the field copies
-        of `state`, by launching each on zero entries, so that the first shattering event does
-        not wait for them."""
-        fdt = numpy_float()
-        i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
-        self._k_append(0, 0, f3, f3, f1, i1)
-        self._k_step(0, self.n_colliders, 0.0, self.gravity)
-        self._k_set_v(0, i1, f3)
-        self._k_max_speed(0)
-        self.state()
-
-    def set_velocities(self, index, v) -> None:
-        """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping
-        them along, sim/perforation.py)."""
-        index = np.asarray(index, dtype=np.int32).reshape(-1)
-        v = np.asarray(v, dtype=np.float64).reshape(-1, 3)
-        if len(index) != len(v) or (len(index) and (index.min() < 0 or index.max() >= self.count)):
-            raise ConfigError("debris.set_velocities", (len(index), len(v), self.count),
-                              "matching lengths and indices below the debris count")
-        if len(index):
-            self._k_set_v(len(index), index, v.astype(numpy_float()))
+        self.capacity, self.n_col_slots = cap, ncol
 
     @ti.kernel
     def _k_set_v(self, k: ti.i32, index: ti.types.ndarray(), v: ti.types.ndarray()):
         for i in range(k):
             self.debris_v[index[i]] = ti.math.vec3(v[i, 0], v[i, 1], v[i, 2])
-
-    def _grow(self, needed: int) -> None:
-        """A bigger tree (capacity doubles until it fits), the old state copied over."""
-        keep = self.state()
-        pid = keep["particle"]
-        cap = self.capacity
-        while cap < needed:
-            cap *= 2
-        self.release()
-        self._alloc(cap, max(1, len(self._colliders)))
-        self._upload_colliders()
-        n = self.count
-        self.count = 0
-        if n:
-            fdt = numpy_float()
-            self._k_append(0, n, keep["x"].astype(fdt), keep["v"].astype(fdt), keep["r"].astype(fdt), pid)
-        self.count = n
 
     @ti.kernel
     def _k_append(self, start: ti.i32, k: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
@@ -155,11 +67,6 @@ class DebrisStore:
             self.debris_v[start + i] = ti.math.vec3(v[i, 0], v[i, 1], v[i, 2])
             self.debris_r[start + i] = r[i]
             self.debris_particle[start + i] = pid[i]
-
-    def step(self, dt: float) -> None:
-        """One substep of gravity, motion and collider contacts for every debris particle."""
-        if self.count:
-            self._k_step(self.count, self.n_colliders, float(dt), self.gravity)
 
     @ti.func
     def _respond(self, i, c, normal, depth):
@@ -209,25 +116,12 @@ class DebrisStore:
                         nl[k] = 1.0 if p[k] >= 0.0 else -1.0
                         self._respond(i, c, R @ nl, slack[k] + r)
 
-    def max_speed(self) -> float:
-        """m/s: the fastest live debris particle (0 with none)."""
-        return float(self._k_max_speed(self.count)) if self.count else 0.0
-
     @ti.kernel
     def _k_max_speed(self, n: ti.i32) -> float:
         v = 0.0
         for i in range(n):
             ti.atomic_max(v, self.debris_v[i].norm())
         return v
-
-    def state(self, first: int = 0) -> dict:
-        """Numpy copies of the live debris from entry `first` on (only those rows cross to the host: a
-        fracture event reads the entries it made): x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
-        k = max(0, self.count - int(first))
-        fdt = numpy_float()
-        out = dict(x=np.zeros((k, 3), fdt), v=np.zeros((k, 3), fdt), r=np.zeros(k, fdt), particle=np.zeros(k, np.int32))
-        self._k_read(int(first), k, out["x"], out["v"], out["r"], out["particle"])
-        return {key: (a if key == "particle" else a.astype(np.float64)) for key, a in out.items()}
 
     @ti.kernel
     def _k_read(self, first: ti.i32, k: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
@@ -238,6 +132,144 @@ class DebrisStore:
                 v[j, a] = self.debris_v[first + j][a]
             r[j] = self.debris_r[first + j]
             pid[j] = self.debris_particle[first + j]
+
+
+def _acquire(capacity: int, n_colliders: int) -> _DebrisArrays:
+    key = (pow2_at_least(capacity, MIN_CAPACITY), max(1, n_colliders))
+    return field_pool.acquire(("debris", *key), lambda: _DebrisArrays(*key))
+
+
+def _recycle(arrays: _DebrisArrays) -> None:
+    field_pool.recycle(("debris", arrays.capacity, arrays.n_col_slots), arrays)
+
+
+class DebrisStore:
+    """Free debris spheres and the colliders they meet; capacity grows by doubling between frames."""
+
+    def __init__(self, capacity: int, gravity, colliders: list[dict]) -> None:
+        self.gravity = ti.math.vec3(*[float(g) for g in gravity])
+        self._colliders = list(colliders)
+        self.count = 0
+        self._a = _acquire(int(capacity), len(self._colliders))
+        self._upload_colliders()
+
+    @property
+    def capacity(self) -> int:
+        return self._a.capacity
+
+    @property
+    def debris_x(self):
+        """(ND,) m: the device field of world positions (the renderer copies from it)."""
+        return self._a.debris_x
+
+    @property
+    def debris_r(self):
+        """(ND,) m: the device field of radii."""
+        return self._a.debris_r
+
+    def _upload_colliders(self) -> None:
+        n = max(1, len(self._colliders))
+        kind = np.zeros(n, np.int32)
+        x, nrm, half = np.zeros((n, 3)), np.tile([0.0, 1.0, 0.0], (n, 1)), np.ones((n, 3))
+        rot, e, mu = np.tile(np.eye(3), (n, 1, 1)), np.zeros(n), np.zeros(n)
+        for k, c in enumerate(self._colliders):
+            kind[k] = PLANE if c["type"] == "plane" else BOX
+            x[k] = c["x"]
+            if c["type"] == "plane":
+                nrm[k] = np.asarray(c["normal"], dtype=np.float64) / np.linalg.norm(c["normal"])
+            else:
+                half[k] = c["half"]
+                rot[k] = c.get("rot", np.eye(3))
+            e[k], mu[k] = c["restitution"], c["friction"]
+        fdt = numpy_float()
+        d = self._a
+        d.col_kind.from_numpy(kind)
+        for fld, a in ((d.col_x, x), (d.col_n, nrm), (d.col_rot, rot), (d.col_half, half), (d.col_e, e),
+                       (d.col_mu, mu)):
+            fld.from_numpy(a.astype(fdt))
+        self.n_colliders = len(self._colliders)
+
+    def release(self) -> None:
+        """Give the device arrays back for a later store (the store is unusable afterwards)."""
+        if self._a is not None:
+            _recycle(self._a)
+            self._a = None
+
+    def add(self, x, v, radius, particle) -> None:
+        """Append debris at world positions x (K,3) m with velocities v (K,3) m/s, radii (K,) m and
+        their particle indices (K,)."""
+        x, v = np.asarray(x, dtype=np.float64).reshape(-1, 3), np.asarray(v, dtype=np.float64).reshape(-1, 3)
+        r, pid = np.asarray(radius, dtype=np.float64).reshape(-1), np.asarray(particle, dtype=np.int32).reshape(-1)
+        k = len(x)
+        if not (v.shape == (k, 3) and r.shape == (k,) and pid.shape == (k,)):
+            raise ConfigError("debris.add", (x.shape, v.shape, r.shape, pid.shape), "matching (K,3), (K,3), (K,), (K,)")
+        if k == 0:
+            return
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v)) and np.all(r > 0.0)):
+            raise ConfigError("debris.add", "non-finite state or radius <= 0", "finite x, v; r > 0 m")
+        if self.count + k > self.capacity:
+            self._grow(self.count + k)
+        fdt = numpy_float()  # the kernel's arrays in the run's precision (no lossy cast inside)
+        self._a._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
+        self.count += k
+
+    def warm_kernels(self) -> None:
+        """Compile and load every kernel the store launches once debris exists, and the field copies
+        of `state`, by launching each on zero entries, so that the first shattering event does
+        not wait for them."""
+        fdt = numpy_float()
+        i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
+        self._a._k_append(0, 0, f3, f3, f1, i1)
+        self._a._k_step(0, self.n_colliders, 0.0, self.gravity)
+        self._a._k_set_v(0, i1, f3)
+        self._a._k_max_speed(0)
+        self.state()
+
+    def set_velocities(self, index, v) -> None:
+        """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping
+        them along, sim/perforation.py)."""
+        index = np.asarray(index, dtype=np.int32).reshape(-1)
+        v = np.asarray(v, dtype=np.float64).reshape(-1, 3)
+        if len(index) != len(v) or (len(index) and (index.min() < 0 or index.max() >= self.count)):
+            raise ConfigError("debris.set_velocities", (len(index), len(v), self.count),
+                              "matching lengths and indices below the debris count")
+        if len(index):
+            self._a._k_set_v(len(index), index, v.astype(numpy_float()))
+
+    def _grow(self, needed: int) -> None:
+        """Bigger arrays (capacity doubles until it fits), the old state copied over."""
+        keep = self.state()
+        pid = keep["particle"]
+        cap = self.capacity
+        while cap < needed:
+            cap *= 2
+        self.release()
+        self._a = _acquire(cap, len(self._colliders))
+        self._upload_colliders()
+        n = self.count
+        self.count = 0
+        if n:
+            fdt = numpy_float()
+            self._a._k_append(0, n, keep["x"].astype(fdt), keep["v"].astype(fdt), keep["r"].astype(fdt), pid)
+        self.count = n
+
+    def step(self, dt: float) -> None:
+        """One substep of gravity, motion and collider contacts for every debris particle."""
+        if self.count:
+            self._a._k_step(self.count, self.n_colliders, float(dt), self.gravity)
+
+    def max_speed(self) -> float:
+        """m/s: the fastest live debris particle (0 with none)."""
+        return float(self._a._k_max_speed(self.count)) if self.count else 0.0
+
+    def state(self, first: int = 0) -> dict:
+        """Numpy copies of the live debris from entry `first` on (only those rows cross to the host: a
+        fracture event reads the entries it made): x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
+        k = max(0, self.count - int(first))
+        fdt = numpy_float()
+        out = dict(x=np.zeros((k, 3), fdt), v=np.zeros((k, 3), fdt), r=np.zeros(k, fdt), particle=np.zeros(k, np.int32))
+        self._a._k_read(int(first), k, out["x"], out["v"], out["r"], out["particle"])
+        return {key: (a if key == "particle" else a.astype(np.float64)) for key, a in out.items()}
 
 
 __all__ = ["DebrisStore"]

@@ -13,12 +13,8 @@ from __future__ import annotations
 
 import taichi as ti
 
-
-def _pow2_at_least(n: int) -> int:
-    p = 1
-    while p < n:
-        p *= 2
-    return p
+from core import field_pool
+from core.field_pool import pow2_at_least
 
 
 @ti.data_oriented
@@ -30,7 +26,7 @@ class RigidStore:
         self.cap_spheres = int(ns)
         self.cap_colliders = int(ncol)
         self.cap_contacts = int(nct)
-        self.grid_size = _pow2_at_least(2 * self.cap_spheres)  # hash buckets, a power of two
+        self.grid_size = pow2_at_least(2 * self.cap_spheres)  # hash buckets, a power of two
         fb = ti.FieldsBuilder()
 
         def dense(n, *fields):
@@ -177,33 +173,21 @@ class RigidStore:
         self.pc_lt = vec3.field()  # (NCT,) N s: its friction impulse, world vector
         dense(nct, self.pc_b, self.pc_ln, self.pc_lt)
 
-    def release(self) -> None:
-        """Destroy the field tree (a process can hold only ~512 trees, TAICHI_NOTES)."""
-        if self._tree is not None:
-            self._tree.destroy()
-            self._tree = None
 
-
-# Stores are recycled: the rigid kernels take the store as a template argument, so each new store
-# object recompiles every kernel of the step (about 10 s on this machine); a recycled store with the
-# same capacities reuses them. Capacities are rounded up to powers of two so that stores match.
-_POOL: dict[tuple[int, int, int, int], list[RigidStore]] = {}
-
-
+# Stores are recycled (core/field_pool.py): the rigid kernels take the store as a template argument, so
+# each new store object recompiles every kernel of the step; a recycled store with the same capacities
+# reuses them, and a released one is never destroyed (that clears every compiled kernel).
 def _key(nb: int, ns: int, ncol: int, nct: int) -> tuple[int, int, int, int]:
-    return tuple(_pow2_at_least(max(16, int(n))) for n in (nb, ns, ncol, nct))  # type: ignore[return-value]
+    return tuple(pow2_at_least(n, 16) for n in (nb, ns, ncol, nct))  # type: ignore[return-value]
 
 
 def acquire_store(nb: int, ns: int, ncol: int, nct: int) -> RigidStore:
     """A store with at least these capacities: a recycled one when available, else a new one."""
     key = _key(nb, ns, ncol, nct)
-    free = _POOL.get(key)
-    if free:
-        return free.pop()
-    return RigidStore(*key)
+    return field_pool.acquire(("rigid", *key), lambda: RigidStore(*key))
 
 
 def recycle_store(store: RigidStore) -> None:
     """Give a store back for reuse (its content is stale; the next owner uploads what it uses)."""
     key = (store.cap_bodies, store.cap_spheres, store.cap_colliders, store.cap_contacts)
-    _POOL.setdefault(key, []).append(store)
+    field_pool.recycle(("rigid", *key), store)

@@ -1,7 +1,9 @@
 """No compile stall after start-up (issue 16, item 2): in a fresh process, once the World is built
 and its first frame has run, a fracture event with shattering, debris and a perforating ball
 compiles no Taichi kernel: the kernels only events and debris launch were compiled and loaded at
-build (sim.fracture_stage.prepare)."""
+build (sim.fracture_stage.prepare). And a second World of the same scene, after the first was
+released, compiles nothing at all: released stores go back to core/field_pool.py instead of being
+destroyed (Taichi 1.7.4's SNodeTree.destroy clears every compiled kernel of the program)."""
 
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 
-PROBE = """
+SPY = """
 import json, sys
 sys.path.insert(0, {root!r})
 from core.runtime import init_taichi
@@ -30,6 +32,9 @@ def spy(self, key=None, args=None, arg_features=None):
     return materialize(self, key, args, arg_features)
 
 kernel_impl.Kernel.materialize = spy
+"""
+
+PROBE = SPY + """
 phase = "build"
 w = World(load_scene("glass_r3"))
 phase = "first frame"
@@ -43,12 +48,43 @@ print(json.dumps(dict(compiled=compiled, events=len(w.events), debris=w.debris.c
 
 
 def test_a_fracture_event_compiles_no_kernel_after_the_first_frame():
-    out = subprocess.run([sys.executable, "-c", PROBE.format(root=str(ROOT))], capture_output=True, text=True,
-                         timeout=600, cwd=ROOT)
-    assert out.returncode == 0, out.stderr[-2000:]
-    info = json.loads(out.stdout.strip().splitlines()[-1])
+    info = _probe(PROBE)
     assert info["events"] >= 1 and info["debris"] > 0 and info["perforation"]  # the paths this covers ran
     phases = {phase for phase, _ in info["compiled"]}
     assert "build" in phases  # the spy sees compiles
     late = [name for phase, name in info["compiled"] if phase == "later"]
     assert late == [], late
+
+
+SECOND_WORLD = SPY + """
+from anisofrac.simulation import Simulation
+
+def one_world():
+    sim = Simulation(load_scene("glass_r3"))
+    sim.step(6)
+    sim.render(160, 120)
+    events, debris = len(sim.world.events), sim.world.debris.count
+    sim.close()
+    return events, debris
+
+phase = "first world"
+first = one_world()
+phase = "second world"
+second = one_world()
+print(json.dumps(dict(compiled=compiled, first=first, second=second)))
+"""
+
+
+def test_a_second_world_after_a_released_one_compiles_no_kernel():
+    info = _probe(SECOND_WORLD)
+    assert info["first"] == info["second"] and info["first"][0] >= 1 and info["first"][1] > 0  # event, debris
+    assert any(phase == "first world" for phase, _ in info["compiled"])  # the spy sees compiles
+    again = [name for phase, name in info["compiled"] if phase == "second world"]
+    assert again == [], again
+
+
+def _probe(code: str) -> dict:
+    out = subprocess.run([sys.executable, "-c", code.format(root=str(ROOT))], capture_output=True, text=True,
+                         timeout=600, cwd=ROOT)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
