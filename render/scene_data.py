@@ -96,13 +96,6 @@ class MeshPart:
     opacity: float = 1.0
 
 
-def _pow2_capacity(n: int) -> int:
-    c = MIN_CAPACITY
-    while c < n:
-        c *= 2
-    return c
-
-
 def _colors_for(part: MeshPart, where: str) -> np.ndarray:
     """(F, 3, 3) corner colours of a part."""
     nf, nv = len(part.faces), len(part.verts)
@@ -269,7 +262,7 @@ class RenderScene:
         and go back to core/field_pool.py: destroying a tree clears every compiled kernel of the
         program (Taichi 1.7.4, SNodeTree.destroy), and the next frame recompiled them all, simulation
         and rendering (about 1 s a time in Pots' drawn frames, 7 s for the next scene's first frame)."""
-        cap = _pow2_capacity(max(needed, self.cap[kind]))
+        cap = field_pool.pow2_at_least(max(needed, self.cap[kind]), MIN_CAPACITY)
         old, old_cap = self._buffers.get(kind), self.cap[kind]
         if old is not None and cap == old_cap:
             return
