@@ -31,6 +31,7 @@ import taichi as ti
 from core import field_pool
 from core.errors import ConfigError
 from core.runtime import numpy_float
+from render.buffers import _k_blank_corners, _k_put_corners, make_buffers
 from rigid.kernel_math import q_to_mat
 
 MIN_CAPACITY = 64  # slots: smallest tree allocated for any kind
@@ -191,47 +192,29 @@ def _k_copy_particles(n: ti.i32, src_x: ti.template(), src_r: ti.template(), par
         particle_color[i] = color
 
 
-def _make_buffers(kind: str, cap: int) -> dict:
-    """A new field tree of one kind of RenderScene buffers for `cap` items: {attribute name: field}."""
-    vec3, vec4 = ti.math.vec3, ti.math.vec4
-    fb = ti.FieldsBuilder()
-    if kind == "surf":
-        f = dict(
-            corner_ref=vec3.field(),  # (3T,) m: corner position in its body's reference frame
-            corner_body=ti.field(ti.i32),  # (3T,) -: body id of the corner, -1 = static world geometry
-            corner_color=vec3.field(),  # (3T,) -: linear RGB in [0, 1]
-            corner_look=ti.math.vec2.field(),  # (3T,) -: (roughness, opacity) of the corner's part
-            corner_x=vec3.field(),  # (3T,) m: world position (changing, written by update())
-            corner_n=vec3.field(),  # (3T,) -: unit world normal of the corner's face (changing)
-        )
-        n = 3 * cap
-    elif kind == "pose":
-        f = dict(
-            pose_x=vec3.field(),  # (B,) m: world position of the body's centre of mass
-            pose_q=vec4.field(),  # (B,) -: unit quaternion w-x-y-z, body frame -> world
-            pose_ref_com=vec3.field(),  # (B,) m: centre of mass in reference coordinates
-        )
-        n = cap
-    elif kind == "part":
-        f = dict(
-            particle_x=vec3.field(),  # (P,) m: world position
-            particle_r=ti.field(float),  # (P,) m: radius
-            particle_color=vec3.field(),  # (P,) -: linear RGB in [0, 1]
-        )
-        n = cap
-    elif kind == "line":
-        f = dict(
-            line_x=vec3.field(),  # (2L,) m: segment end points, segment j = (2j, 2j + 1)
-            line_color=vec3.field(),  # (2L,) -: linear RGB per end point (both ends equal)
-        )
-        n = 2 * cap
-    else:
-        f = dict(_bounds=vec3.field())  # (2,) m: lo, hi of the last body_bounds query
-        n = 2
-    for field_ in f.values():
-        fb.dense(ti.i, n).place(field_)
-    fb.finalize()
-    return f
+def _corner_arrays(parts: list[MeshPart], where: str) -> tuple:
+    """Host arrays of the corners of `parts`, three per triangle in the run's precision: reference
+    positions (3T, 3) m, body ids (3T,) int32, linear RGB (3T, 3), (roughness, opacity) (3T, 2). Bad
+    parts raise ConfigError naming `where`[k]."""
+    refs, bodies, colors, looks = [np.zeros((0, 3))], [np.zeros(0, np.int64)], [np.zeros((0, 3))], [np.zeros((0, 2))]
+    for k, part in enumerate(parts):
+        at = f"{where}[{k}]"
+        if not (0.0 <= part.roughness <= 1.0 and 0.0 < part.opacity <= 1.0):
+            raise ConfigError(f"{at}.look", (part.roughness, part.opacity), "roughness in [0, 1] and opacity in (0, 1]")
+        v = np.asarray(part.verts, dtype=np.float64).reshape(-1, 3)
+        f = np.asarray(part.faces, dtype=np.int64).reshape(-1, 3)
+        if len(f) and (f.min() < 0 or f.max() >= len(v)):
+            raise ConfigError(f"{at}.faces", f"index range {f.min()}..{f.max()}", f"0..{len(v) - 1}")
+        if not np.all(np.isfinite(v)):
+            raise ConfigError(f"{at}.verts", "non-finite coordinates", "finite coordinates (m)")
+        body = np.broadcast_to(np.asarray(part.body, dtype=np.int64), (len(v),))
+        refs.append(v[f].reshape(-1, 3))
+        bodies.append(body[f].reshape(-1))
+        colors.append(_colors_for(MeshPart(v, f, body, part.colors, part.color_per), at).reshape(-1, 3))
+        looks.append(np.broadcast_to([part.roughness, part.opacity], (3 * len(f), 2)))
+    fdt = numpy_float()
+    return (np.concatenate(refs).astype(fdt), np.concatenate(bodies).astype(np.int32),
+            np.concatenate(colors).astype(fdt), np.concatenate(looks).astype(fdt))
 
 
 class RenderScene:
@@ -249,12 +232,19 @@ class RenderScene:
         self.surface_version = 0
         self.generation = 0
         self._buffers: dict[str, dict] = {}  # kind -> {attribute name: field} of its current tree
+        self._blocks: dict = {}  # surface block key -> (first triangle, triangles) in the buffers
+        self._block_data: dict = {}  # surface block key -> host copy (ref, body, colour, look) of its corners
+        self._blank = 0  # triangles of removed blocks still in the buffers (blanked)
         self._bounds = None
         self.cap = dict(surf=0, pose=0, part=0, line=0, bounds=0)
         self._alloc("surf", tri_capacity)
         self._alloc("pose", body_capacity)
         self._alloc("part", particle_capacity)
         self._alloc("line", line_capacity)
+        # compiled now, not at the first fracture event's refresh
+        _k_put_corners(0, 0, *_corner_arrays([], "render.surfaces"), self.corner_ref, self.corner_body,
+                       self.corner_color, self.corner_look)
+        _k_blank_corners(0, 0, self.corner_ref, self.corner_body)
 
     # ---- allocation ------------------------------------------------------------------------------
     def _alloc(self, kind: str, needed: int) -> None:
@@ -266,7 +256,7 @@ class RenderScene:
         old, old_cap = self._buffers.get(kind), self.cap[kind]
         if old is not None and cap == old_cap:
             return
-        new = field_pool.acquire(("render", kind, cap), lambda: _make_buffers(kind, cap))
+        new = field_pool.acquire(("render", kind, cap), lambda: make_buffers(kind, cap))
         for name, f in new.items():
             setattr(self, name, f)
         self._buffers[kind] = new
@@ -289,45 +279,57 @@ class RenderScene:
 
     # ---- surfaces --------------------------------------------------------------------------------
     def set_surfaces(self, parts: list[MeshPart]) -> None:
-        """Replace all surfaces (after a scene build or a fracture event); bumps surface_version."""
-        refs, bodies, colors, looks = [], [], [], []
-        for k, part in enumerate(parts):
-            where = f"render.surfaces[{k}]"
-            if not (0.0 <= part.roughness <= 1.0 and 0.0 < part.opacity <= 1.0):
-                raise ConfigError(f"{where}.look", (part.roughness, part.opacity),
-                                  "roughness in [0, 1] and opacity in (0, 1]")
-            v = np.asarray(part.verts, dtype=np.float64).reshape(-1, 3)
-            f = np.asarray(part.faces, dtype=np.int64).reshape(-1, 3)
-            if len(f) and (f.min() < 0 or f.max() >= len(v)):
-                raise ConfigError(f"{where}.faces", f"index range {f.min()}..{f.max()}", f"0..{len(v) - 1}")
-            if not np.all(np.isfinite(v)):
-                raise ConfigError(f"{where}.verts", "non-finite coordinates", "finite coordinates (m)")
-            body = np.broadcast_to(np.asarray(part.body, dtype=np.int64), (len(v),))
-            refs.append(v[f])
-            bodies.append(body[f])
-            colors.append(_colors_for(MeshPart(v, f, body, part.colors, part.color_per), where))
-            looks.append(np.broadcast_to([part.roughness, part.opacity], (3 * len(f), 2)))
-        ref = np.concatenate(refs).reshape(-1, 3) if refs else np.zeros((0, 3))
-        body = np.concatenate(bodies).reshape(-1) if bodies else np.zeros(0, np.int64)
-        col = np.concatenate(colors).reshape(-1, 3) if colors else np.zeros((0, 3))
-        look = np.concatenate(looks).reshape(-1, 2) if looks else np.zeros((0, 2))
-        n_tri = len(ref) // 3
-        self._alloc("surf", n_tri)
-        nc = 3 * self.cap["surf"]
-        fdt = numpy_float()
+        """Replace all surfaces (a scene build); bumps surface_version."""
+        self._blocks.clear()
+        self._block_data.clear()
+        self.n_tris, self._blank = 0, 0
+        self.update_surfaces({"all": parts})
 
-        def pad(a, dt, fill=0):
-            out = np.full((nc,) + a.shape[1:], fill, dtype=dt)
-            out[: len(a)] = a
-            return out
-
-        self.corner_ref.from_numpy(pad(ref, fdt))
-        self.corner_body.from_numpy(pad(body, np.int32, -1))
-        self.corner_color.from_numpy(pad(col, fdt))
-        self.corner_look.from_numpy(pad(look, fdt, 1.0))
-        self.n_tris = n_tri
+    def update_surfaces(self, blocks: dict, drop=()) -> None:
+        """Surfaces kept in blocks (a body's, the floor's), so that a fracture event uploads only what
+        it changed: the blocks named in `blocks` (key -> list of MeshPart) are written anew, those in
+        `drop` removed, the others stay where they are in the buffers. A removed block's triangles
+        are blanked (degenerate, static: nothing draws them); when the new ones do not fit after the
+        last triangle, or blanks outnumber the live triangles, every block is written again from its
+        host copy (in the order the blocks were first given). Bumps surface_version."""
+        for key in (*drop, *blocks):
+            if key in self._blocks:
+                start, n = self._blocks.pop(key)
+                del self._block_data[key]
+                _k_blank_corners(3 * start, 3 * n, self.corner_ref, self.corner_body)
+                self._blank += n
+        new = {key: _corner_arrays(parts, f"render.surfaces[{key!r}]") for key, parts in blocks.items()}
+        self._block_data.update(new)
+        n_new = sum(len(d[1]) // 3 for d in new.values())
+        live = sum(len(d[1]) // 3 for d in self._block_data.values())
+        if self.n_tris + n_new > self.cap["surf"] or self._blank > live:
+            self._write_all_blocks()
+        else:
+            for key, (ref, body, col, look) in new.items():
+                _k_put_corners(3 * self.n_tris, len(body), ref, body, col, look, self.corner_ref, self.corner_body,
+                               self.corner_color, self.corner_look)
+                self._blocks[key] = (self.n_tris, len(body) // 3)
+                self.n_tris += len(body) // 3
         self.surface_version += 1
         self.update()
+
+    def _write_all_blocks(self) -> None:
+        """Every block's host copy, one after the other from triangle 0 (the buffers grow to fit)."""
+        data = list(self._block_data.values()) or [_corner_arrays([], "render.surfaces")]
+        n_tri = sum(len(d[1]) // 3 for d in data)
+        self._alloc("surf", n_tri)
+        nc = 3 * self.cap["surf"]
+        for k, (fld, fill) in enumerate(((self.corner_ref, 0.0), (self.corner_body, -1), (self.corner_color, 0.0),
+                                         (self.corner_look, 1.0))):
+            a = np.concatenate([d[k] for d in data])
+            out = np.full((nc,) + a.shape[1:], fill, dtype=a.dtype)
+            out[: len(a)] = a
+            fld.from_numpy(out)
+        start = 0
+        for key, d in self._block_data.items():
+            self._blocks[key] = (start, len(d[1]) // 3)
+            start += len(d[1]) // 3
+        self.n_tris, self._blank = n_tri, 0
 
     def set_surface_mesh(self, mesh, label_body=None, colors=None) -> None:
         """Surfaces from a `geometry.surface.SurfaceMesh` (reference frame, `vert_label` = fragment).

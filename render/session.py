@@ -2,8 +2,9 @@
 renderer (the rasteriser by default, or GGUI), the following camera (render/framing.py), and the
 PNG and video writers (DESIGN.md section 7).
 
-Surfaces are rebuilt only when fracture changed them (`World.surface_version`), coloured by each
-material's look with crack faces in its crack shade (`SceneView`); every frame one kernel moves
+Surfaces are rebuilt only when fracture changed them (`World.surface_version`), and then only for the
+bodies it changed: each body is one block of the render buffers (RenderScene.update_surfaces), coloured
+by each material's look with crack faces in its crack shade (`SceneView`); every frame one kernel moves
 them by the body poses, read straight from the rigid store's fields.
 """
 
@@ -74,6 +75,10 @@ class SurfaceCache:
     def body_mesh(self, body: int) -> tuple:
         """(stamp, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
         return self._bodies[body][:4]
+
+    def body_face_material(self, body: int) -> np.ndarray:
+        """(F,) material id of each face of a live body's mesh after `update`."""
+        return self._bodies[body][4]
 
     def surfaces(self, world):
         from geometry.surface import SurfaceMesh
@@ -181,11 +186,14 @@ class SceneView:
         edge = np.median(np.linalg.norm(rest - np.roll(rest, 1, axis=1), axis=2)) if len(rest) else 0.0
         self._line_width, self._line_lift = LINE_WIDTH_REL * edge, LIFT_REL * edge  # m
         self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
+        self._stamps: dict[int, int] = {}  # body -> the stamp of the surface block the scene holds
+        self.scene.update_surfaces({"floor": self._floor})  # the first block: the viewer draws it alone
         self.refresh()
 
-    def _outer_faces(self, mesh) -> np.ndarray:
-        """(F,) bool: faces of `mesh` lying on the objects' rest surface (the rest are crack faces)."""
-        fid = mesh.face_id
+    def _outer_faces(self, face_id: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """(F,) bool: the faces (tet face ids, vertices, faces) lying on the objects' rest surface (the
+        rest are crack faces)."""
+        fid = face_id
         if len(fid) and fid.max() >= len(self._outer):
             grown = np.full(max(int(fid.max()) + 1, 2 * len(self._outer)), -1, dtype=np.int8)
             grown[: len(self._outer)] = self._outer
@@ -194,71 +202,66 @@ class SceneView:
         if todo.size:
             first = np.unique(fid[todo], return_index=True)[1]  # split faces share their tet face
             rows = todo[first]
-            self._outer[fid[rows]] = self._rest.covers(mesh.verts[mesh.faces[rows]], self._tol)
+            self._outer[fid[rows]] = self._rest.covers(verts[faces[rows]], self._tol)
         return self._outer[fid] == 1
 
-    def _surface_parts(self, mesh, mat: np.ndarray) -> list[MeshPart]:
-        """One part per material (`mat`, per face: its roughness and opacity), faces coloured by look
-        and crack."""
+    def _body_parts(self, body: int) -> list[MeshPart]:
+        """A body's surface block: one part per material (its roughness and opacity), faces coloured by
+        look and crack, and its crack lines."""
         w = self.world
         if len(self.looks) < len(w.materials):  # a material added after the start (the viewer's ball)
             self.looks = material_looks(w)
-        outer = self._outer_faces(mesh)
-        body = mesh.face_label
+        stamp, v, f, fid = self._surfaces.body_mesh(body)
+        mat = self._surfaces.body_face_material(body)
+        outer = self._outer_faces(fid, v, f)
         if self.colors == "fragments":
-            base = body_palette(max(1, int(body.max(initial=0)) + 1))[body]
+            base = np.broadcast_to(body_palette(body + 1)[body], (len(f), 3))
             crack = 0.6 * base + 0.4 * np.asarray(CRACK_GREY)
         else:
-            base = np.array([self.looks[m].color for m in range(len(self.looks))])[mat]
-            crack = np.array([self.looks[m].crack() for m in range(len(self.looks))])[mat]
+            base = np.array([lk.color for lk in self.looks])[mat]
+            crack = np.array([lk.crack() for lk in self.looks])[mat]
         color = np.where(outer[:, None], base, crack)
         parts = []
         for m in np.unique(mat):
             sel = mat == m
             look = self.looks[int(m)]
-            parts.append(MeshPart(mesh.verts, mesh.faces[sel], body=mesh.vert_label, colors=color[sel],
-                                  color_per="face", roughness=look.roughness, opacity=look.opacity))
+            parts.append(MeshPart(v, f[sel], body=body, colors=color[sel], color_per="face",
+                                  roughness=look.roughness, opacity=look.opacity))
         if self.crack_lines:
-            parts += self._crack_line_part(outer, mat)
+            hit = self._ribbons.get(body)
+            if hit is None or hit[0] != stamp:
+                hit = self._ribbons[body] = (stamp, *ribbons(v, f, outer, self._line_width, self._line_lift))
+            _, rv, rf, on_face = hit
+            if len(rf):
+                if self.colors == "fragments":  # light palette colours: the dark line
+                    line = np.broadcast_to(LINE_DARK, (len(rf), 3))
+                else:
+                    line = np.array([line_color(lk.color, lk.opacity) for lk in self.looks])[mat[on_face]]
+                parts.append(MeshPart(rv, rf, body=body, colors=line, color_per="face", roughness=1.0, opacity=1.0))
         return parts
 
-    def _crack_line_part(self, outer: np.ndarray, mat: np.ndarray) -> list[MeshPart]:
-        """The crack lines of every body (render/crack_lines.py), from the per-body cache; `outer` and
-        `mat` are per face of the last `surfaces` mesh (bodies in SurfaceCache.order)."""
-        verts, faces, body, face_mat = [], [], [], []
-        start = offset = 0
-        cache = {}
-        for b in self._surfaces.order:
-            stamp, v, f, _ = self._surfaces.body_mesh(b)
-            hit = self._ribbons.get(b)
-            if hit is None or hit[0] != stamp:
-                hit = (stamp, *ribbons(v, f, outer[start:start + len(f)], self._line_width, self._line_lift))
-            cache[b] = hit
-            _, rv, rf, on_face = hit
-            verts.append(rv)
-            faces.append(rf + offset)
-            body.append(np.full(len(rv), b, np.int64))
-            face_mat.append(mat[start + on_face])
-            start += len(f)
-            offset += len(rv)
-        self._ribbons = cache
-        if not offset:
-            return []
-        face_mat = np.concatenate(face_mat)
-        if self.colors == "fragments":  # light palette colours: the dark line
-            colors = np.broadcast_to(LINE_DARK, (len(face_mat), 3))
-        else:
-            colors = np.array([line_color(lk.color, lk.opacity) for lk in self.looks])[face_mat]
-        return [MeshPart(np.concatenate(verts), np.concatenate(faces), body=np.concatenate(body), colors=colors,
-                         color_per="face", roughness=1.0, opacity=1.0)]
+    def _refresh_surfaces(self) -> None:
+        """Write the blocks of the bodies a fracture changed or made, drop those of bodies gone."""
+        bodies = self._surfaces.update(self.world)
+        live = set(bodies)
+        gone = [b for b in self._stamps if b not in live]
+        for b in gone:
+            del self._stamps[b]
+            self._ribbons.pop(b, None)
+        changed = {}
+        for b in bodies:
+            stamp = self._surfaces.body_mesh(b)[0]
+            if self._stamps.get(b) != stamp:
+                changed[b] = self._body_parts(b)
+                self._stamps[b] = stamp
+        self.scene.update_surfaces(changed, drop=gone)
 
     def refresh(self) -> None:
         """Bring surfaces (when fracture changed them) and poses up to date."""
         w = self.world
         if "rigid" in w.stages:
             if w.surface_version != self._version:
-                mesh = self._surfaces.surfaces(w)
-                self.scene.set_surfaces(self._floor + self._surface_parts(mesh, self._surfaces.face_material))
+                self._refresh_surfaces()
                 self._version = w.surface_version
             s = w.rigid._s
             self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
@@ -267,7 +270,6 @@ class SceneView:
                                                debris_color(w))
         else:  # elastic scenes: the particles themselves
             if self._version < 0:
-                self.scene.set_surfaces(self._floor)
                 self._version = 0
             x = w.elastic.positions()
             colors = np.where(w.elastic_fixed[:, None], [[0.35, 0.35, 0.4]], [[0.85, 0.55, 0.25]])
