@@ -280,10 +280,7 @@ class RenderScene:
     # ---- surfaces --------------------------------------------------------------------------------
     def set_surfaces(self, parts: list[MeshPart]) -> None:
         """Replace all surfaces (a scene build); bumps surface_version."""
-        self._blocks.clear()
-        self._block_data.clear()
-        self.n_tris, self._blank = 0, 0
-        self.update_surfaces({"all": parts})
+        self.update_surfaces({"all": parts}, drop=list(self._blocks))
 
     def update_surfaces(self, blocks: dict, drop=()) -> None:
         """Surfaces kept in blocks (a body's, the floor's), so that a fracture event uploads only what
@@ -292,13 +289,14 @@ class RenderScene:
         are blanked (degenerate, static: nothing draws them); when the new ones do not fit after the
         last triangle, or blanks outnumber the live triangles, every block is written again from its
         host copy (in the order the blocks were first given). Bumps surface_version."""
+        new = {key: _corner_arrays(parts, "render.surfaces" if key == "all" else f"render.surfaces[{key!r}]")
+               for key, parts in blocks.items()}  # first: a bad part changes nothing
         for key in (*drop, *blocks):
             if key in self._blocks:
                 start, n = self._blocks.pop(key)
                 del self._block_data[key]
                 _k_blank_corners(3 * start, 3 * n, self.corner_ref, self.corner_body)
                 self._blank += n
-        new = {key: _corner_arrays(parts, f"render.surfaces[{key!r}]") for key, parts in blocks.items()}
         self._block_data.update(new)
         n_new = sum(len(d[1]) // 3 for d in new.values())
         live = sum(len(d[1]) // 3 for d in self._block_data.values())

@@ -269,8 +269,6 @@ class SceneView:
                 self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count,
                                                debris_color(w))
         else:  # elastic scenes: the particles themselves
-            if self._version < 0:
-                self._version = 0
             x = w.elastic.positions()
             colors = np.where(w.elastic_fixed[:, None], [[0.35, 0.35, 0.4]], [[0.85, 0.55, 0.25]])
             self.scene.set_particles(x, w.particles.radius * 1.2, colors)

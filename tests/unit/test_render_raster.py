@@ -283,6 +283,13 @@ def test_capacity_growth(scene, raster):
 
 
 def test_bad_input(scene):
+    v, f = box_mesh([0.05, 0.05, 0.05])
+    scene.set_surfaces([MeshPart(v, f, -1)])
+    before = scene.corner_ref.to_numpy()[: 3 * scene.n_tris].copy(), scene.n_tris, scene.surface_version
+    with pytest.raises(ConfigError, match=r"render.surfaces\[7\]\[0\].faces"):  # a bad block changes nothing
+        scene.update_surfaces({7: [MeshPart(np.zeros((3, 3)), np.array([[0, 1, 3]]), 0)]}, drop=["all"])
+    assert scene.n_tris == before[1] and scene.surface_version == before[2]
+    assert np.array_equal(scene.corner_ref.to_numpy()[: 3 * scene.n_tris], before[0])
     with pytest.raises(ConfigError, match="faces"):
         scene.set_surfaces([MeshPart(np.zeros((3, 3)), np.array([[0, 1, 3]]), -1)])
     with pytest.raises(ConfigError, match="colors"):
