@@ -221,6 +221,30 @@ class GGUIRenderer:
         self.ti_scene = self.window.get_scene()
         self.drawer = GGUIDrawer()
         self.message = f"renderer: ggui (Vulkan offscreen, {self.width}x{self.height}; {why})"
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Draw and discard a frame of every kind of primitive (a one- and a two-sided mesh, particles,
+        lines). Taichi 1.7.4 frees a frame's vertex buffers right after its asynchronous submit, before
+        lavapipe's submit thread has drawn it (docs/decisions.md, "Headless frames"); the frames that came
+        back empty (sessions 10 and 16, in full test runs under load) were each the first draw of a new
+        renderer, whose pipelines lavapipe builds at that draw: the longest way from submit to reading
+        the buffers. A mitigation of the upstream race, not a cure: later draws find the pipelines built."""
+        from render.primitives import box_mesh
+        from render.scene_data import Lighting, MeshPart
+
+        scene = RenderScene(tri_capacity=12, body_capacity=1, particle_capacity=1, line_capacity=1)
+        try:
+            v, f = box_mesh([0.1, 0.1, 0.1])
+            scene.set_surfaces([MeshPart(v, f, -1)])
+            scene.set_particles([[0.15, 0.0, 0.0]], 0.02)
+            scene.set_lines([[-0.1, 0.1, 0.0]], [[0.1, 0.1, 0.0]])
+            camera = Camera(eye=[0.5, 0.4, 0.6], target=[0.0, 0.0, 0.0])
+            for two_sided in (False, True):
+                scene.lighting = Lighting(two_sided=two_sided)
+                self.render(scene, camera)
+        finally:
+            scene.release()
 
     def render(self, scene: RenderScene, camera: Camera) -> np.ndarray:
         """Draw the scene's current buffers offscreen and read the frame back."""
