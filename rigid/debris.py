@@ -51,7 +51,7 @@ class _DebrisArrays:
         self.col_mu = ti.field(float)  # (NC,) -: Coulomb friction
         fb.dense(ti.i, ncol).place(self.col_kind, self.col_x, self.col_n, self.col_rot, self.col_half,
                                    self.col_e, self.col_mu)
-        self._tree = fb.finalize()
+        fb.finalize()
         self.capacity, self.n_col_slots = cap, ncol
 
     @ti.kernel

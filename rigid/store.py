@@ -44,7 +44,7 @@ class RigidStore:
         self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
         self.max_level = ti.field(ti.i32)  # () -: largest support level this step
         fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level)
-        self._tree = fb.finalize()
+        fb.finalize()
 
     def _bodies(self, dense, nb: int) -> None:
         """Per body: fixed mass properties and materials, then pose, velocity and step scratch."""
