@@ -245,6 +245,7 @@ class RenderScene:
         _k_put_corners(0, 0, *_corner_arrays([], "render.surfaces"), self.corner_ref, self.corner_body,
                        self.corner_color, self.corner_look)
         _k_blank_corners(0, 0, self.corner_ref, self.corner_body)
+        self._write_all_blocks()  # and Taichi's from_numpy kernels of the corner fields (compaction)
 
     # ---- allocation ------------------------------------------------------------------------------
     def _alloc(self, kind: str, needed: int) -> None:

@@ -83,6 +83,33 @@ def test_a_second_world_after_a_released_one_compiles_no_kernel():
     assert again == [], again
 
 
+DRAWN = SPY + """
+from render.session import HeadlessSession
+
+phase = "build"
+w = World(load_scene("glass_r3"))
+session = HeadlessSession(w, "raster", 160, 120)
+phase = "first frame"
+w.step_frame()
+session.draw()
+phase = "later"
+for _ in range(5):
+    w.step_frame()
+    session.draw()
+print(json.dumps(dict(compiled=compiled, events=len(w.events), debris=w.debris.count,
+                      drawn_particles=session.view.scene.n_particles)))
+"""
+
+
+def test_drawn_frames_compile_no_kernel_after_the_first():
+    """Drawn with the rasteriser, the frames of an event (surface blocks written, debris drawn as
+    particles for the first time) compile nothing after the first frame either."""
+    info = _probe(DRAWN)
+    assert info["events"] >= 1 and info["debris"] > 0 and info["drawn_particles"] > 0
+    late = [name for phase, name in info["compiled"] if phase == "later"]
+    assert late == [], late
+
+
 def _probe(code: str) -> dict:
     out = subprocess.run([sys.executable, "-c", code.format(root=str(ROOT))], capture_output=True, text=True,
                          timeout=600, cwd=ROOT)
