@@ -40,7 +40,3 @@ def recycle(key: Hashable, item) -> None:
     """Give `item` back under `key` (its owner must not use it afterwards)."""
     _FREE.setdefault(key, []).append(item)
 
-
-def pooled(key: Hashable) -> int:
-    """How many items wait under `key` (tests)."""
-    return len(_FREE.get(key, ()))

@@ -47,8 +47,6 @@ class SurfaceCache:
 
     def __init__(self) -> None:
         self._bodies: dict[int, tuple] = {}  # body -> (stamp, verts, faces, face_id, face_material)
-        self.order: list[int] = []  # bodies in the order of the last `surfaces` mesh
-        self.face_material = np.zeros(0, np.int32)  # (F,) material of each face of the last `surfaces`
 
     def update(self, world) -> list[int]:
         """Rebuild the changed bodies' meshes; returns the live bodies in id order."""
@@ -81,26 +79,23 @@ class SurfaceCache:
         return self._bodies[body][4]
 
     def surfaces(self, world):
+        """The whole world's mesh from the per-body cache (bodies in id order): what `world_surfaces`
+        gives, without rebuilding the unchanged bodies (tests compare the two)."""
         from geometry.surface import SurfaceMesh
 
-        bodies = self.update(world)
-        self.order = bodies
-        verts, faces, face_id, vlab, flab, fmat = [], [], [], [], [], []
+        verts, faces, face_id, vlab, flab = [], [], [], [], []
         offset = 0
-        for b in bodies:
-            _, v, f, fid, mat = self._bodies[b]
+        for b in self.update(world):
+            _, v, f, fid, _ = self._bodies[b]
             verts.append(v)
             faces.append(f + offset)
             face_id.append(fid)
-            fmat.append(mat)
             vlab.append(np.full(len(v), b, np.int64))
             flab.append(np.full(len(f), b, np.int64))
             offset += len(v)
         if not verts:
             e = np.zeros(0, np.int64)
-            self.face_material = np.zeros(0, np.int32)
             return SurfaceMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), e, e, face_id=e)
-        self.face_material = np.concatenate(fmat)
         return SurfaceMesh(verts=np.concatenate(verts), faces=np.concatenate(faces), face_label=np.concatenate(flab),
                            vert_label=np.concatenate(vlab), face_id=np.concatenate(face_id))
 

@@ -3,7 +3,8 @@
 `RigidStore` holds every field of one `RigidWorld`, split into fixed data (set when a body,
 sphere or collider is added; never written by a step) and changing data (pose, velocity, sleep
 state, derived world quantities, the grid and the contacts). Capacities are fixed for the store's
-life; `RigidWorld` grows by building a bigger store, copying, and releasing the old tree.
+life; `RigidWorld` grows by taking a bigger store, copying, and giving the old one back to the pool
+(core/field_pool.py).
 
 Body frame (docs/notes_rigid.md): a reference point X maps to world as
 `x = R(body_q) (X - body_ref_com) + body_x`; quaternions are w-x-y-z (`body_q[b][0]` is w).
