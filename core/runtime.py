@@ -118,6 +118,7 @@ def init_taichi(
     import taichi as ti
 
     from core.taichi_frontend import install as fast_frontend
+    from core.taichi_frontend import install_serial_loops as serial_loops
 
     fast_frontend()  # memoised source excerpts in Taichi's AST transformer (same messages)
     kwargs: dict = dict(
@@ -134,6 +135,8 @@ def init_taichi(
     else:
         if threads > 0:
             kwargs["cpu_max_num_threads"] = threads
+        if threads == 1:
+            serial_loops()  # no thread-pool round trip per loop (core/taichi_frontend.py)
         ti.init(arch=ti.cpu, enable_fallback=False, **kwargs)
         device = _cpu_name()
     _runtime = RuntimeInfo(arch=arch, precision=precision, threads=threads, device=device)

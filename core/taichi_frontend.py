@@ -27,10 +27,24 @@ frontend before them):
   `inspect.getframeinfo`, which resolves the module and its whole source for every kernel defined
   (0.4 s for the pot's modules); the same line comes from `linecache` directly. Only kernels
   defined after `install()` (modules imported after `init_taichi`) gain.
+
+Single-thread runs (`install_serial_loops`, called by `core.runtime.init_taichi` for the CPU with one
+thread): Taichi's CPU backend hands every offloaded parallel loop to its thread pool and the launching
+thread sleeps on a condition variable until the pool is done, even with `cpu_max_num_threads=1`:
+about 65 us per loop on this 2-core machine against about 19 us for a whole kernel without one
+(/tmp measurement, bench/bench_launch.py). A rigid step is some 20 kernels of 2-8 loops each, so a
+one-body pot frame spent 22 of its 27 ms waking that pool. The hook builds every range loop
+(`range`, `ti.ndrange`, `ti.grouped(ti.ndrange)`) that no non-static loop encloses as
+`ti.loop_config(serialize=True)` would: the same iterations in the same order on the launching
+thread. Struct-for loops are left alone (Taichi cannot serialise them). Results can differ from the
+pooled build in the last bit only where a loop reduces into a local that was not zero before it
+(Taichi's thread-local reduction adds the loop's partial sum to it at the end); each build is
+bitwise reproducible.
 """
 
 from __future__ import annotations
 
+import ast
 import functools
 import linecache
 import sys
@@ -130,4 +144,37 @@ def install() -> None:
             setattr(kernel_impl, name, _memo_per_function(getattr(kernel_impl, name)))
 
 
-__all__ = ["MemoTextWrapper", "install"]
+def _is_range_loop(transformer, ctx, node) -> bool:
+    """Whether a `for` statement builds a range loop (Taichi's build_For dispatch), not a struct-for."""
+    iterator = node.iter
+    decorator = transformer.get_decorator(ctx, iterator)
+    if decorator == "ndrange":
+        return True
+    if decorator == "grouped":
+        return len(iterator.args) == 1 and transformer.get_decorator(ctx, iterator.args[0]) == "ndrange"
+    return decorator == "" and isinstance(iterator, ast.Call) and isinstance(iterator.func, ast.Name) \
+        and iterator.func.id == "range"
+
+
+def install_serial_loops() -> None:
+    """Build every outermost range loop serial (module doc, single-thread runs); idempotent. Only
+    kernels compiled afterwards change (Taichi's offline cache keys the loop's setting)."""
+    from taichi.lang.ast import ast_transformer
+
+    transformer = ast_transformer.ASTTransformer
+    build_for = transformer.build_For
+    if getattr(build_for, "serial_loops", False):
+        return
+
+    def build_serial_for(ctx, node):
+        outermost = not any(not scope.is_static for scope in ctx.loop_scopes)
+        if outermost and _is_range_loop(transformer, ctx, node):
+            ctx.ast_builder.parallelize(1)
+            ctx.ast_builder.strictly_serialize()
+        return build_for(ctx, node)
+
+    build_serial_for.serial_loops = True
+    transformer.build_For = staticmethod(build_serial_for)
+
+
+__all__ = ["MemoTextWrapper", "install", "install_serial_loops"]

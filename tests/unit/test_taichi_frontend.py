@@ -6,6 +6,7 @@ them; the offline kernel cache is large enough not to evict."""
 import inspect
 import textwrap
 
+import numpy as np
 import pytest
 import taichi as ti
 from taichi.lang import kernel_impl
@@ -102,3 +103,48 @@ def test_the_offline_cache_is_large_enough_not_to_evict():
 
     cfg = impl.current_cfg()
     assert cfg.offline_cache and cfg.offline_cache_max_size_of_files == OFFLINE_CACHE_MAX_BYTES >= 500 * 2**20
+
+
+def test_single_thread_runs_build_their_outermost_range_loops_serial():
+    """Taichi refuses `break` in an outermost loop it runs through its thread pool ("Cannot break in
+    the outermost loop"); with one CPU thread init_taichi builds those loops serial, so a kernel that
+    stops at the first match compiles and finds it. ndrange, grouped ndrange, a loop in a ti.func and
+    a struct-for (left to the pool) give what numpy gives."""
+    from core.runtime import ensure_runtime
+
+    info = ensure_runtime()
+    if info.arch != "cpu" or info.threads != 1:
+        pytest.skip("the serial build is for single-thread CPU runs")
+    values = ti.field(ti.i32, shape=16)
+    grid = ti.field(ti.i32, shape=(4, 4))
+    values.from_numpy(np.arange(16, dtype=np.int32) ** 2)
+
+    @ti.kernel
+    def first_above(limit: ti.i32) -> ti.i32:
+        hit = -1
+        for i in range(16):
+            if values[i] > limit:
+                hit = i
+                break
+        return hit
+
+    @ti.func
+    def total_of_values() -> ti.i32:
+        total = 0
+        for i in range(16):
+            total += values[i]
+        return total
+
+    @ti.kernel
+    def fill_and_sum() -> ti.i32:
+        for i, j in ti.ndrange(4, 4):
+            grid[i, j] = i * 4 + j
+        for ij in ti.grouped(ti.ndrange(4, 4)):
+            grid[ij] += 1
+        for i, j in grid:  # struct-for
+            grid[i, j] *= 2
+        return total_of_values()
+
+    assert first_above(50) == 8 and first_above(1000) == -1
+    assert fill_and_sum() == int((np.arange(16) ** 2).sum())
+    np.testing.assert_array_equal(grid.to_numpy(), 2 * (np.arange(16).reshape(4, 4) + 1))
