@@ -79,9 +79,10 @@ def travel_splits(world, dt: float) -> int:
     return max(1, math.ceil(ratio / limit))
 
 
-def rigid_step(world, dt: float) -> None:
-    """Advance a RigidWorld by dt seconds (dt checked by the caller), in `travel_splits` parts."""
-    parts = travel_splits(world, dt)
+def rigid_step(world, dt: float, split: bool = True) -> None:
+    """Advance a RigidWorld by dt seconds (dt checked by the caller), in `travel_splits` parts, or in
+    one where the caller has split the step already (split=False)."""
+    parts = travel_splits(world, dt) if split else 1
     for _ in range(parts):
         _step(world, dt / parts)
 

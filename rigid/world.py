@@ -458,11 +458,12 @@ class RigidWorld(HostSync):
         return e
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float) -> None:
-        """Advance by dt seconds: the stages of rigid/step.py."""
+    def step(self, dt: float, split: bool = True) -> None:
+        """Advance by dt seconds: the stages of rigid/step.py, in `travel_splits` parts (split=False: the
+        caller split the step already, as the World does to read impacts from every part)."""
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.1):
             raise ConfigError("rigid.dt", dt, "(0, 0.1] s")
-        rigid_step(self, dt)
+        rigid_step(self, dt, split)
 
 
 def _checked_spec(bid: int, sp: dict):

@@ -359,7 +359,7 @@ class World:
     def _run_stage(self, name: str, dt: float, impacts: dict[int, dict]) -> None:
         """One substep or frame stage (sim/stages.py); fracture events run their own stages."""
         if name == "rigid":
-            self.rigid.step(dt)
+            self.rigid.step(dt, split=False)  # step_frame split the substep (travel_splits)
         elif name == "debris":
             self.debris.step(dt)
         elif name == "fracture.events":
