@@ -32,8 +32,8 @@ Single-thread runs (`install_serial_loops`, called by `core.runtime.init_taichi`
 thread): Taichi's CPU backend hands every offloaded parallel loop to its thread pool and the launching
 thread sleeps on a condition variable until the pool is done, even with `cpu_max_num_threads=1`:
 on this 2-core machine 18 us for a kernel without a loop, 99 us with one and 351 us with five
-(bench/bench_launch.py). A rigid step is some 20 kernels of 2-8 loops each, so a
-one-body pot frame spent 22 of its 27 ms waking that pool. The hook builds every range loop
+(bench/bench_launch.py). A rigid step is some 20 kernels of 2-8 loops each, launched 4 times a
+frame: a falling pot's frame took 29 ms, 8 ms with the hook. The hook builds every range loop
 (`range`, `ti.ndrange`, `ti.grouped(ti.ndrange)`) that no non-static loop encloses as
 `ti.loop_config(serialize=True)` would: the same iterations in the same order on the launching
 thread. Struct-for loops are left alone (Taichi cannot serialise them). Results can differ from the
