@@ -71,12 +71,20 @@ def load_config(scene: str | Path, overrides=None):
     return load_scene(str(scene), overrides_as_text(overrides))
 
 
-def load(scene: str | Path, overrides=None, seed: int | None = None):
-    """Build a scene and return its Simulation (anisofrac.simulation.Simulation). Starts Taichi with
-    the defaults unless `init` was called. Bad names, paths and values raise ConfigError naming the
-    key path, the value and what is allowed, exactly as the command line reports them."""
+def load(scene, overrides=None, seed: int | None = None):
+    """Build a scene (a name, a .toml path, or a SceneConfig from `load_config`) and return its
+    Simulation (anisofrac.simulation.Simulation). Starts Taichi with the defaults unless `init` was
+    called. Bad names, paths and values raise ConfigError naming the key path, the value and what is
+    allowed, exactly as the command line reports them."""
     from anisofrac.simulation import Simulation
+    from scenes.config import SceneConfig
 
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise ConfigError("load.seed", seed, "an integer >= 0")
+    if isinstance(scene, SceneConfig):
+        if overrides:
+            raise ConfigError("load.overrides", overrides, "none with a SceneConfig (pass them to load_config)")
+        return Simulation(scene, seed=seed)
+    if not isinstance(scene, (str, Path)):
+        raise ConfigError("load.scene", type(scene).__name__, "a scene name, a .toml path or a SceneConfig")
     return Simulation(load_config(scene, overrides), seed=seed)

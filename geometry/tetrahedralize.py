@@ -139,8 +139,10 @@ def tetrahedralize(
     name = getattr(shape, "name", "shape")
     thinnest = float(getattr(shape, "thinnest_wall", shape.thickness)())
     if thinnest < TOO_THIN * h:
+        lo, hi = shape.bounds()  # the size tells a file read in the wrong unit (`units`) at a glance
         raise MeshError(name, f"too thin for the resolution: its thinnest part is {thinnest * 1e3:.3g} mm and the tets "
-                        f"would be {h * 1e3:.3g} mm wide", f"use a resolution <= {thinnest / TOO_THIN:.3g} m")
+                        f"would be {h * 1e3:.3g} mm wide (the whole object is {float((hi - lo).max()) * 1e3:.3g} mm "
+                        f"across)", f"use a resolution <= {thinnest / TOO_THIN:.3g} m")
     mesh, report = _mesh(shape, h, name, seed, layer_axis, layer_spacing)
     if layer_axis is None:  # the layered sampler is the paper's own method: its figures are reported only
         check_quality(report, name)

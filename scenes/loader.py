@@ -35,7 +35,11 @@ def scene_path(name_or_path: str) -> Path:
             raise ConfigError("scene", str(p), "an existing .toml file")
         return p
     candidate = SCENE_DIR / f"{name_or_path}.toml"
-    if not candidate.exists():
+    try:
+        found = candidate.is_file()
+    except OSError:  # not a usable file name at all (too long, a NUL byte)
+        found = False
+    if not found:
         raise ConfigError("scene", name_or_path, "one of " + ", ".join(scene_names()) + ", or a .toml path")
     return candidate
 

@@ -26,21 +26,29 @@ def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np
     tm = cKDTree(x[members])
     tl = cKDTree(x[local])
     sdm = tm.sparse_distance_matrix(tl, float(rho.max()) * (1.0 + 1e-12), output_type="ndarray")
-    e = sdm["i"].astype(np.int64)
-    j = local[sdm["j"].astype(np.int64)]
-    keep = j != members[e]
-    e, j = e[keep], j[keep]
-    xi = x[j] - x[members[e]]
-    q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], xi), axis=1)
-    keep = q < 1.0
-    e, j = e[keep], j[keep]
-    order = np.argsort(e * np.int64(x.shape[0]) + j)  # by (e, j): one int64 key sorts faster than lexsort
-    return e[order], j[order]
+    e_all = sdm["i"].astype(np.int64)
+    j_all = local[sdm["j"].astype(np.int64)]
+    kept = []
+    # the kernel test in chunks of PAD_SLOTS candidates: its (pairs, 3, 3) temporaries stay in cache
+    for a in range(0, e_all.size, PAD_SLOTS):
+        e, j = e_all[a:a + PAD_SLOTS], j_all[a:a + PAD_SLOTS]
+        i = members[e]
+        q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], x[j] - x[i]), axis=1)
+        keep = (q < 1.0) & (j != i)
+        kept.append(e[keep] * np.int64(x.shape[0]) + j[keep])
+    key = np.sort(np.concatenate(kept)) if kept else np.zeros(0, dtype=np.int64)  # by (e, j)
+    return key // x.shape[0], key % x.shape[0]
 
 
 def _quad_basis(X: np.ndarray) -> np.ndarray:
     """(E,9) linear and quadratic monomials of scaled offsets X (E,3)."""
-    return np.concatenate([X, X * X, X[:, [0]] * X[:, [1]], X[:, [0]] * X[:, [2]], X[:, [1]] * X[:, [2]]], axis=1)
+    out = np.empty((X.shape[0], 9))
+    out[:, :3] = X
+    np.multiply(X, X, out=out[:, 3:6])
+    np.multiply(X[:, 0], X[:, 1], out=out[:, 6])
+    np.multiply(X[:, 0], X[:, 2], out=out[:, 7])
+    np.multiply(X[:, 1], X[:, 2], out=out[:, 8])
+    return out
 
 
 def sph_gradient(
@@ -68,28 +76,30 @@ def sph_gradient(
     cnt = np.bincount(owner, minlength=m)
     start = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)  # pairs of member e: start[e]..start[e+1]
     K = int(cnt.max())
-    i = members[owner]
-    xi = x[nbr] - x[i]
     Gm = G[members]
-    Gi = Gm[owner]
-    Gx = np.einsum("eab,eb->ea", Gi, xi)
-    q = np.linalg.norm(Gx, axis=1)
-    inside = (q > 0.0) & (q < 1.0)
-    qs = np.where(inside, q, 1.0)
-    k = np.where(inside, GRAD_NORM * np.linalg.det(Gm)[owner] * (1.0 - qs) ** 2 / qs, 0.0)
-    g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
+    det = np.linalg.det(Gm)
     srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0] if order == 2 else None  # support radius: scales the basis
     grad = np.empty((m, 3, 3))
     # members in blocks of about PAD_SLOTS padded slots, every block padded to the same width K (so
     # each member's sums are the same arithmetic as in one block): a neighbourhood that holds a whole
-    # fragment (1k members x 1k neighbours) pads to 10^6 slots, and blocks keep that in cache
+    # fragment (1k members x 1k neighbours) pads to 10^6 slots, and blocks keep that in cache; the
+    # per-pair kernel terms are made block by block too (pairs are sorted by owner)
     step = max(1, PAD_SLOTS // K)
     for a in range(0, m, step):
         b = min(m, a + step)
         pairs = slice(start[a], start[b])
-        grad[a:b], used[a:b] = _block_gradient(order, K, owner[pairs] - a, (np.arange(start[a], start[b])
-                                               - start[owner[pairs]]), xi[pairs], g[pairs], k[pairs],
-                                               volume[nbr[pairs]], u[nbr[pairs]] - u[i[pairs]], cnt[a:b],
+        own, j = owner[pairs], nbr[pairs]
+        i = members[own]
+        xi = x[j] - x[i]
+        Gi = np.repeat(Gm[a:b], cnt[a:b], axis=0)  # = Gm[own]
+        Gx = np.einsum("eab,eb->ea", Gi, xi)
+        q = np.linalg.norm(Gx, axis=1)
+        inside = (q > 0.0) & (q < 1.0)
+        qs = np.where(inside, q, 1.0)
+        k = np.where(inside, GRAD_NORM * det[own] * (1.0 - qs) ** 2 / qs, 0.0)
+        g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
+        grad[a:b], used[a:b] = _block_gradient(order, K, own - a, np.arange(start[a], start[b]) - start[own],
+                                               xi, g, k, volume[j], u[j] - u[i], cnt[a:b],
                                                None if srad is None else srad[a:b])
     return grad, used
 
@@ -100,10 +110,15 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
     m = cnt.size
     used = np.zeros(m, dtype=np.int64)
 
+    flat = owner * K + slot  # each pair's row in the (members x K) padding
+
     def pad(vals: np.ndarray) -> np.ndarray:
-        out = np.zeros((m, K) + vals.shape[1:])
-        out[owner, slot] = vals
-        return out
+        out = np.zeros((m * K,) + vals.shape[1:])
+        out[flat] = vals
+        return out.reshape((m, K) + vals.shape[1:])
+
+    def rows(a: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        return a if sel.all() else a[sel]  # every member selected (the usual case): no copy
 
     # members whose quadratic fit is taken (order 2, at least 9 neighbours for the 9 monomials); the
     # others take Bonet-Lok (order >= 1) or plain SPH weights
@@ -111,10 +126,10 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
     rest = ~quad
     d = np.empty((m, K, 3))
     if rest.any():
-        Vg = pad(vol[:, None] * g)[rest]  # plain SPH weights V_j grad W (Eq. 7, 10)
+        Vg = rows(pad(vol[:, None] * g), rest)  # plain SPH weights V_j grad W (Eq. 7, 10)
         d[rest] = Vg
         if order >= 1:
-            Bm = np.matmul(Vg.transpose(0, 2, 1), pad(xi)[rest])  # sum_j V_j grad W (x) xi
+            Bm = np.matmul(Vg.transpose(0, 2, 1), rows(pad(xi), rest))  # sum_j V_j grad W (x) xi
             scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
             det = np.linalg.det(Bm)
             ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
@@ -124,8 +139,8 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
             used[np.flatnonzero(rest)[ok]] = 1
             d[rest] = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
     if quad.any():
-        w = pad(vol * k)[quad]  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
-        pb = pad(_quad_basis(xi / srad[owner, None]))[quad]  # (q, K, 9)
+        w = rows(pad(vol * k), quad)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
+        pb = rows(pad(_quad_basis(xi / srad[owner, None])), quad)  # (q, K, 9)
         Mq = np.matmul(pb.transpose(0, 2, 1), w[:, :, None] * pb)
         Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
         d[quad] = np.matmul(pb, Mi[:, :, :3]) * (w / srad[quad, None])[:, :, None]  # the linear terms

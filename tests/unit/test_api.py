@@ -57,6 +57,9 @@ def test_overrides_match_the_command_line(taichi_runtime):
     (lambda: af.load_config("glass_r3", {"objects.nothing.position": [0, 0, 0]}), "objects"),
     (lambda: af.load_config("glass_r3", 42), "overrides"),
     (lambda: af.load("glass_r3", seed=-1), "load.seed"),
+    (lambda: af.load("x" * 300), "scene"),  # no usable file name: not an OSError
+    (lambda: af.load(42), "load.scene"),
+    (lambda: af.load(af.load_config("glass_r3"), {"materials.glass.cracks": 5}), "load.overrides"),
 ])
 def test_bad_arguments_name_the_problem(taichi_runtime, call, key):
     with pytest.raises(af.ConfigError) as err:
@@ -66,8 +69,8 @@ def test_bad_arguments_name_the_problem(taichi_runtime, call, key):
 
 def test_free_fall(taichi_runtime):
     """Centre of mass under gravity: y = y0 + v0 t - g t^2 / 2 up to the symplectic-Euler lag
-    g h t / 2 < g dt t / 2; x moves at v0 exactly."""
-    with af.Simulation(scene_from_dict(DROP, "api_drop")) as sim:
+    g h t / 2 < g dt t / 2; x moves at v0 exactly. Built by `load` from a SceneConfig."""
+    with af.load(scene_from_dict(DROP, "api_drop")) as sim:
         (b0,) = sim.bodies()
         sim.step(30)
         (b,) = sim.bodies()
