@@ -16,18 +16,25 @@ CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
 DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
 QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
 PAD_SLOTS = 1 << 16  # (member, neighbour) slots padded at once: a block's arrays stay in cache
+RADIUS_BINS = 4  # neighbour searches per analysis, over members of similar support radius
 
 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
     """Pairs (e, j) with member members[e] and local particle j != it, |G_i (x_j - x_i)| < 1
     (gather with the member's own kernel, as sph/neighbours.py). Returns (owner e, index j), sorted."""
     Gm = G[members]
-    rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]
-    tm = cKDTree(x[members])
+    rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: |G (x_j - x_i)| < 1 needs |x_j - x_i| < rho
     tl = cKDTree(x[local])
-    sdm = tm.sparse_distance_matrix(tl, float(rho.max()) * (1.0 + 1e-12), output_type="ndarray")
-    e_all = sdm["i"].astype(np.int64)
-    j_all = local[sdm["j"].astype(np.int64)]
+    # candidates within each member's own support, members taken in RADIUS_BINS bins of similar rho (one
+    # search radius for all over-collected 2.7x where children and parents mix, as in Pots)
+    e_parts, j_parts = [], []
+    for part in np.array_split(np.argsort(rho, kind="stable"), min(RADIUS_BINS, members.size)):
+        sdm = cKDTree(x[members[part]]).sparse_distance_matrix(tl, float(rho[part].max()) * (1.0 + 1e-12),
+                                                              output_type="ndarray")
+        e_parts.append(part[sdm["i"]])
+        j_parts.append(local[sdm["j"]])
+    e_all = np.concatenate(e_parts).astype(np.int64)
+    j_all = np.concatenate(j_parts).astype(np.int64)
     kept = []
     # the kernel test in chunks of PAD_SLOTS candidates: its (pairs, 3, 3) temporaries stay in cache
     for a in range(0, e_all.size, PAD_SLOTS):
