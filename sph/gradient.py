@@ -10,6 +10,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from core.errors import ConfigError
+from core.host_threads import ordered_map
 from sph.kernel import GRAD_NORM
 
 CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
@@ -17,6 +18,7 @@ DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls 
 QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
 PAD_SLOTS = 1 << 16  # (member, neighbour) slots padded at once: a block's arrays stay in cache
 RADIUS_BINS = 4  # neighbour searches per analysis, over members of similar support radius
+BIN_MEMBERS = 64  # members per bin at least: a small neighbourhood is searched at once, in line
 
 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
@@ -25,26 +27,28 @@ def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np
     Gm = G[members]
     rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: |G (x_j - x_i)| < 1 needs |x_j - x_i| < rho
     tl = cKDTree(x[local])
-    # candidates within each member's own support, members taken in RADIUS_BINS bins of similar rho (one
-    # search radius for all over-collected 2.7x where children and parents mix, as in Pots)
-    e_parts, j_parts = [], []
-    for part in np.array_split(np.argsort(rho, kind="stable"), min(RADIUS_BINS, members.size)):
+    n = np.int64(x.shape[0])
+
+    def pairs_of(part: np.ndarray) -> np.ndarray:
+        """Keys e n + j of the pairs of members `part`: candidates within their largest support radius,
+        the kernel test in chunks of PAD_SLOTS candidates (its (pairs, 3, 3) temporaries stay in cache)."""
         sdm = cKDTree(x[members[part]]).sparse_distance_matrix(tl, float(rho[part].max()) * (1.0 + 1e-12),
                                                               output_type="ndarray")
-        e_parts.append(part[sdm["i"]])
-        j_parts.append(local[sdm["j"]])
-    e_all = np.concatenate(e_parts).astype(np.int64)
-    j_all = np.concatenate(j_parts).astype(np.int64)
-    kept = []
-    # the kernel test in chunks of PAD_SLOTS candidates: its (pairs, 3, 3) temporaries stay in cache
-    for a in range(0, e_all.size, PAD_SLOTS):
-        e, j = e_all[a:a + PAD_SLOTS], j_all[a:a + PAD_SLOTS]
-        i = members[e]
-        q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], x[j] - x[i]), axis=1)
-        keep = (q < 1.0) & (j != i)
-        kept.append(e[keep] * np.int64(x.shape[0]) + j[keep])
-    key = np.sort(np.concatenate(kept)) if kept else np.zeros(0, dtype=np.int64)  # by (e, j)
-    return key // x.shape[0], key % x.shape[0]
+        e_all, j_all = part[sdm["i"]].astype(np.int64), local[sdm["j"]].astype(np.int64)
+        kept = [np.zeros(0, dtype=np.int64)]
+        for a in range(0, e_all.size, PAD_SLOTS):
+            e, j = e_all[a:a + PAD_SLOTS], j_all[a:a + PAD_SLOTS]
+            i = members[e]
+            q = np.linalg.norm(np.einsum("eab,eb->ea", Gm[e], x[j] - x[i]), axis=1)
+            keep = (q < 1.0) & (j != i)
+            kept.append(e[keep] * n + j[keep])
+        return np.concatenate(kept)
+
+    # members in RADIUS_BINS bins of similar rho, searched side by side (core/host_threads.py): one
+    # search radius for all over-collected where children and parents mix, as in Pots
+    bins = np.array_split(np.argsort(rho, kind="stable"), max(1, min(RADIUS_BINS, members.size // BIN_MEMBERS)))
+    key = np.sort(np.concatenate(ordered_map(pairs_of, bins)))  # by (e, j)
+    return key // n, key % n
 
 
 def _quad_basis(X: np.ndarray) -> np.ndarray:
@@ -92,7 +96,8 @@ def sph_gradient(
     # fragment (1k members x 1k neighbours) pads to 10^6 slots, and blocks keep that in cache; the
     # per-pair kernel terms are made block by block too (pairs are sorted by owner)
     step = max(1, PAD_SLOTS // K)
-    for a in range(0, m, step):
+
+    def block(a: int) -> None:
         b = min(m, a + step)
         pairs = slice(start[a], start[b])
         own, j = owner[pairs], nbr[pairs]
@@ -108,6 +113,8 @@ def sph_gradient(
         grad[a:b], used[a:b] = _block_gradient(order, K, own - a, np.arange(start[a], start[b]) - start[own],
                                                xi, g, k, volume[j], u[j] - u[i], cnt[a:b],
                                                None if srad is None else srad[a:b])
+
+    ordered_map(block, range(0, m, step))  # blocks side by side (core/host_threads.py), each in its rows
     return grad, used
 
 
