@@ -7,8 +7,8 @@ and every block is the same arithmetic wherever it runs, so results never depend
 threads (tests/unit/test_host_threads.py). Taichi kernels are never launched from these threads.
 
 The pool is made at first use (nothing at import) with one thread per core this process may run on
-(`os.sched_getaffinity`); with one core, one item, or when called from one of its own threads, the
-work runs in the caller's thread.
+(`os.sched_getaffinity`), one per process (a forked child makes its own); with one core, one item,
+or when called from one of its own threads, the work runs in the caller's thread.
 """
 
 from __future__ import annotations
@@ -29,8 +29,12 @@ def host_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-@functools.cache
 def _pool() -> ThreadPoolExecutor | None:
+    return _pool_of(os.getpid())  # a forked child makes its own (its parent's threads are not in it)
+
+
+@functools.cache
+def _pool_of(pid: int) -> ThreadPoolExecutor | None:
     n = host_cores()
     return ThreadPoolExecutor(max_workers=n, thread_name_prefix="host", initializer=_mark) if n > 1 else None
 

@@ -1,7 +1,8 @@
 """The SPH displacement gradient of Algorithm 1 (paper Eq. 7, 10): grad u_i = sum_j (u_j - u_i) (x) d_ij
 over each member's own anisotropic kernel (Eq. 4), plain, with the Bonet-Lok correction, or by a
 quadratic weighted least-squares fit (the default; docs/notes_cracks.md says why). Host numpy,
-vectorised over a padded (member, neighbour) layout; no Python loop per particle.
+vectorised over a padded (member, neighbour) layout in blocks that run on the host's cores
+(core/host_threads.py); no Python loop per particle.
 """
 
 from __future__ import annotations

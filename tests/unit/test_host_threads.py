@@ -24,6 +24,15 @@ def test_results_come_in_the_items_order():
     assert ordered_map(slow_square, range(20)) == [k * k for k in range(20)]
 
 
+def test_a_forked_child_gets_its_own_pool(monkeypatch):
+    """The pool is per process: a child forked after the parent made its threads has none of them."""
+    mine = host_threads._pool()
+    monkeypatch.setattr(host_threads.os, "getpid", lambda: -12345)
+    child = host_threads._pool()
+    assert (child is None) == (mine is None) and (child is None or child is not mine)
+    assert ordered_map(lambda k: 2 * k, range(5)) == [0, 2, 4, 6, 8]
+
+
 def test_a_map_inside_a_pool_thread_runs_in_line():
     """A map called from one of the pool's threads must not wait for the (busy) pool itself."""
     def outer(k: int) -> list:
