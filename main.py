@@ -23,11 +23,10 @@ DEFAULT_SCENE = "pot"
 
 def _check_threads(args: argparse.Namespace) -> None:
     """--threads within 1..cores, checked before anything imports Taichi (a refusal costs no start-up)."""
-    import os
-
     from core.errors import ConfigError
+    from core.host_threads import host_cores
 
-    cores = os.cpu_count() or 1
+    cores = host_cores()
     if not 1 <= args.threads <= cores:
         raise ConfigError("--threads", args.threads, f"an integer from 1 to {cores} (this machine's cores)")
 
