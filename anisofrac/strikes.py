@@ -5,7 +5,7 @@ viewer.
   Young's modulus, infinite mass and radius) on a breakable body at a surface point, applied between
   frames: `sim.fracture_stage.fracture_body` analyses it (Algorithm 1), cuts, shatters and splits.
   The striker's velocity gives the speed (its norm) and the direction of the blow; the analysis takes
-  the struck surface's own normal near that direction (sim.fracture_stage.surface_frame).
+  the struck surface's own normal near that direction (sim.struck_surface.surface_frame).
 * A preview (`preview`) runs the same analysis and applies nothing: Algorithm 1's groups, the crack
   discs in the world frame, the group stresses, the shatter radius and the speed at which the first
   group would fire.

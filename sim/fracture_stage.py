@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
+from sim.struck_surface import surface_frame, surface_radius_at
 
 # A piece breaks again only when it holds at least this many physical-particle volumes of its object:
 # about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
@@ -184,77 +185,6 @@ def analysed_rows(ps: ParticleSet, body: int) -> np.ndarray:
     return ids
 
 
-def _facing_faces(ps, body: int, point: np.ndarray, normal: np.ndarray):
-    """The body's free tet faces (no link) whose outward normal is against `normal` (the side a
-    striker meets; a thin wall's far face is as near): (triangles (F,3,3) m relative to `point`,
-    area-weighted outward normals (F,3), centroids (F,3)), or None where there is none."""
-    from geometry.tetmesh import TET_FACES
-
-    mine = np.flatnonzero(ps.alive & (ps.body == body) & (ps.links < 0).any(1))
-    if mine.size == 0:
-        return None
-    tet, face = np.nonzero(ps.links[mine] < 0)
-    v = ps.rest_verts[mine[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
-    tri = np.take_along_axis(v, TET_FACES[face][:, :, None], axis=1)  # (F,3,3)
-    cen = tri.mean(1)
-    an = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted face normals
-    opposite = v[np.arange(len(face)), face]
-    flip = np.einsum("fi,fi->f", an, opposite - cen) > 0.0  # outward: away from the opposite vertex
-    an[flip] *= -1.0
-    facing = an @ normal < 0.0
-    if not facing.any():
-        return None
-    return tri[facing], an[facing], cen[facing]
-
-
-def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float,
-                  striker: np.ndarray | None = None):
-    """The struck surface at a contact (reference frame): (point on it, inward unit normal).
-
-    The rigid solver's contact normal and point are impulse-weighted means over a few collision
-    spheres: the normal can lean far off the surface (18 degrees on a pane struck square-on) and the
-    point lies off the striker's axis and outside the tets, and Algorithm 1 builds its frame on them.
-    The surface's own normal is the area-weighted mean of the outward normals of the body's free tet
-    faces that face the striker (`_facing_faces`) and whose centroid lies within `radius` of the
-    nearest such face. The point is the foot on that plane of the striker's centre (`striker`, a
-    moving body; the first contact of a convex striker) or, for a collider, of the reported point.
-    Falls back to the given point and normal where the body has no free face or its faces point away
-    from the given normal.
-    """
-    faces = _facing_faces(ps, body, point, normal)
-    if faces is None:
-        return point, normal
-    _, an, cen = faces
-    dist = np.linalg.norm(cen, axis=1)
-    near = np.linalg.norm(cen - cen[int(np.argmin(dist))], axis=1) < radius
-    an, cen = an[near], cen[near]
-    total = an.sum(0)
-    w = np.linalg.norm(an, axis=1)
-    inward = -total / max(float(np.linalg.norm(total)), 1e-300)
-    if np.linalg.norm(total) < 1e-3 * float(w.sum()) or float(np.dot(inward, normal)) <= 0.0:
-        return point, normal
-    plane = (w[:, None] * cen).sum(0) / w.sum()
-    foot = np.zeros(3) if striker is None else np.asarray(striker, dtype=np.float64) - point
-    foot = foot - float(np.dot(foot - plane, inward)) * inward
-    if np.linalg.norm(foot - plane) > radius + float(np.linalg.norm(plane)):
-        foot = -float(np.dot(-plane, inward)) * inward  # striker centre far off the patch: the point's foot
-    return point + foot, inward
-
-
-def surface_radius_at(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float) -> float:
-    """Radius of curvature (m) of the struck surface at `point` (on it; `normal` inward), for Hertz's
-    R1: `sph.contact.surface_radius` fitted to the corners of the facing free faces within `radius`
-    of the point; inf for a flat patch."""
-    from sph.contact import surface_radius
-
-    faces = _facing_faces(ps, body, point, normal)
-    if faces is None:
-        return math.inf
-    tri, _, cen = faces
-    corners = tri[np.linalg.norm(cen, axis=1) < radius].reshape(-1, 3)
-    return surface_radius(np.unique(corners, axis=0) + point, point, normal)
-
-
 def held_particles(obj, bounds, x: np.ndarray) -> np.ndarray:
     """(N,) bool: particles of a static object at rest positions x held by the scene (within the
     object's held border of its rest bounding box, along the axes the border does not swallow). A
@@ -309,8 +239,8 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     result = analyse_impact(ps.centroid[ids], ps.volume[ids], G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
     if len(np.unique(ps.material[ids])) > 1:
-        result.cracks = across_materials(world, taken, body, ids, spec, int(ps.material[nearest]), result.cracks,
-                                         result.field)
+        result.cracks = across_materials(world, taken, body, ids, replace(spec, thin=result.thin_axis),
+                                         int(ps.material[nearest]), result.cracks, result.field)
     # planes closer than a particle are one crack (geometry/crack_merge.py): the edge of the particle at each point
     at = [nearest_to(c.point) for c in result.cracks]
     result.cracks = merge_coincident(result.cracks, tet_edge(ps.volume[at]), world.bodies[body].history)
@@ -326,8 +256,6 @@ def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, 
     (sph.crossings.carry_on), or not at all where the new material holds; the new analysis takes
     the contact's wall model (a disc struck on its rim stays a beam at an inner crossing). One level:
     cracks of the new analyses are not followed into a third material."""
-    from dataclasses import replace
-
     from sph.cracks import analyse_impact, material_crossings, stop_at_crossings
     from sph.crossings import carry_on
 

@@ -290,11 +290,11 @@ def thin_axis(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray | None:
     return None
 
 
-def plane_stress(kind: str, wall: StruckWall, n: np.ndarray) -> np.ndarray:
-    """(3,3) projector onto the loaded directions where the wall is thin: across a plate (n), or
-    across a thin body struck on its edge (its thin in-plane axis); the identity otherwise (a beam
+def plane_stress(kind: str, thin: np.ndarray | None) -> np.ndarray:
+    """(3,3) projector onto the loaded directions where the wall is thin across `thin` (`thin_axis`: a
+    plate's n, a thin body struck on its edge: its thin in-plane axis); the identity otherwise (a beam
     has its own section stress)."""
-    t = None if kind == "beam" else thin_axis(kind, wall, n)
+    t = None if kind == "beam" else thin
     return np.eye(3) if t is None else np.eye(3) - np.outer(t, t)
 
 

@@ -164,6 +164,7 @@ class ImpactSpec:
     striker_radius: float | None = None  # m: the other body's half-width across n (None: R2; inf: none)
     reference: np.ndarray | None = None  # (3,) -: in-plane reference direction e1 (None: from the kernel)
     held: bool = False  # the struck body is held by the scene (static): a beam is supported at its ends
+    thin: np.ndarray | None = None  # (3,) -: axis across which the wall is thin, if known (a crossing: the contact's)
 
     def __post_init__(self) -> None:
         p = np.asarray(self.point, dtype=np.float64).reshape(-1)
@@ -177,6 +178,10 @@ class ImpactSpec:
         if not (math.isfinite(v) and v > 0.0):
             raise ConfigError("impact.speed", self.speed, "> 0 m/s and finite")
         self.point, self.normal, self.speed = p, n / nn, v
+        t = None if self.thin is None else np.asarray(self.thin, dtype=np.float64).reshape(-1)
+        if t is not None and not (t.shape == (3,) and np.all(np.isfinite(t)) and np.linalg.norm(t) > 0.0):
+            raise ConfigError("impact.thin", self.thin, "a finite non-zero 3-vector or None")
+        self.thin = None if t is None else t / np.linalg.norm(t)
         if self.striker_radius is not None and not float(self.striker_radius) > 0.0:  # NaN fails too
             raise ConfigError("impact.striker_radius", self.striker_radius, "> 0 m (inf: no plug), or None for R2")
         if self.reference is not None:
@@ -235,6 +240,7 @@ class ImpactAnalysis:
     tensile_strength: float  # Pa
     elapsed_ms: float  # ms: wall time of the analysis (time.perf_counter)
     timings: dict = field(default_factory=dict)  # ms per stage
+    thin_axis: np.ndarray | None = None  # (3,) -: the axis across which the struck wall is thin (None: thick)
 
     def to_dict(self) -> dict:
         """Plain floats / ints / lists for stats.json."""
@@ -397,8 +403,7 @@ def analyse_impact(
     nb = alg.neighbourhood(x, volume, G, P, n, impact.reference)
     wf = alg.wall_field(nb, field, B, E1, nu1, C, impact.m1, impact.held)
     hz = series_impact(hz, wf.body_energy)  # the wall's compliance in series with the contact
-    F = hz.force
-    ell = max(hz.radius_a, nb.r_near)  # regularisation: the field is not resolved below a particle
+    F, ell = hz.force, max(hz.radius_a, nb.r_near)  # ell: the field is not resolved below a particle
     if N is None:  # cracks = "auto": N from the wall's bending vs fracture energy (Vandenberghe 2013)
         h_wall = wf.plate_thickness if wf.kind == "plate" else min(B, nb.depth)
         N = int(np.clip(round(star_crack_count(E1, h_wall, Gc, material.density, impact.speed)), 1, MAX_CRACKS))
@@ -412,7 +417,8 @@ def analyse_impact(
     t2 = clock()
     ms = alg.member_state(x, volume, G, u, nb, members, owner, nbr, wf, C, E1, nu1, ell, gradient, correction)
     gr = alg.angular_groups(nb, members, volume, N)
-    Pi = alg.plane_stress(wf.kind, nb.wall, n)
+    thin = alg.thin_axis(wf.kind, nb.wall, n) if impact.thin is None else impact.thin
+    Pi = alg.plane_stress(wf.kind, thin)
     gs = alg.group_state(ms, gr, N, F, Pi)
     pvals, pdirs, peak, fired = alg.rankine_test(ms, gr, gs["tension_per_newton"], n, N, F, sigma_t, Pi,
                                                  material.cleavage)
@@ -432,7 +438,7 @@ def analyse_impact(
     shatter = ShatterField(support=nb.rho, level=level, edge=nb.e_near, r_plug=r_plug)
     r_in, r_crush = shatter.radius(nb.V_near), shatter.radius(nb.V_near, grains=True)
     u_lim = alg.u_limit(Gc, nb.e_near, nb.V_near)
-    sides = alg.crack_sides(n, gr, pdirs, fired, N, alg.thin_axis(wf.kind, nb.wall, n))
+    sides = alg.crack_sides(n, gr, pdirs, fired, N, thin)
     arrest = alg.arrest_lengths(wf, nb, C, E1, nu1, ell, Pi, pdirs, sides, fired, F, Gc, L_body)
     r_out = alg.run_lengths(r_out, arrest, U_av, fired, Gc, B, nb.rho, L_body)
     cracks = alg.crack_regions(P, pdirs, fired, sides, r_out, r_in, r_crush, shatter)
@@ -446,7 +452,7 @@ def analyse_impact(
         principal_stress=pvals, principal_dir=pdirs, tension_per_newton=peak, energy=gs["energy"],
         energy_available=U_av, fired=fired, r_outer=r_out, arrest_length=arrest, side=sides, r_inner=r_in,
         u_limit=u_lim, shatter_energy=U_sh, r_plug=r_plug, r_crush=r_crush,
-        kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim,
+        kinetic_energy=K, tensile_strength=sigma_t, elapsed_ms=(clock() - t0) * 1e3, timings=tim, thin_axis=thin,
     )
 
 

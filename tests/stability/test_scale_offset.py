@@ -98,7 +98,7 @@ def test_millimetre_file_gives_the_same_fragments(files, reference):
 def test_translated_scene_gives_the_same_fragments(files, reference, offset):
     """f64: the whole scene (slab, ball, floor) moved by (d, d, d): same fragments, masses within 1e-7
     relative and centres of mass within 1e-8 m. The crack point is the foot of the ball's centre on the
-    struck face (sim.fracture_stage.surface_frame); at 1e5 m the rigid integration keeps that centre to
+    struck face (sim.struck_surface.surface_frame); at 1e5 m the rigid integration keeps that centre to
     about 1e-9 m, which moves the cut by as much (measured: masses 2e-12 relative at 1e3 m, 1.5e-8 at 1e5 m)."""
     d = (offset, offset, offset)
     far = fragments(slab_scene(files["m"], "m", d), d)

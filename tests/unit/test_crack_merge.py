@@ -121,3 +121,23 @@ def test_a_pane_struck_on_its_edge_cracks_through_its_thickness():
     for crack in an.cracks:
         assert abs(float(crack.side[2])) < 1e-3  # the thin axis is measured from the tets: z within 0.06 deg
     assert pieces(p, an) >= 2
+
+
+def test_one_analysis_crack_found_twice_is_cut_once(box):
+    """Two half-discs of one analysis (one point) running the same way, their planes 8 degrees apart:
+    beyond the reach rule (1 m x sin 8 degrees is 1.4 tet edges) but within the analysis' own accuracy
+    (DIRECTION_ACCURACY_DEG): one crack, the longer, whose region holds both shatter radii. Cut as two,
+    the wedge between them frees slivers; 15 degrees apart they are two cracks."""
+    from geometry.crack_merge import DIRECTION_ACCURACY_DEG
+
+    side = [0.0, 1.0, 0.0]  # both planes hold y: the sides run the same way
+    a = Crack(point=P_MID, normal=tilted(0.0), r_outer=0.8, side=side, r_inner=0.05)
+    b = Crack(point=P_MID, normal=tilted(8.0), r_outer=1.0, side=side)
+    assert 8.0 < DIRECTION_ACCURACY_DEG and math.sin(math.radians(8.0)) * b.r_outer > EDGE
+    (one,) = merge_coincident([a, b], [EDGE, EDGE])
+    assert np.array_equal(one.normal, b.normal) and one.r_outer == 1.0 and one.r_inner == 0.05
+    _, raw = apply_cracks(box, [a, b], mode="subdivision")
+    _, rep = apply_cracks(box, [one], mode="subdivision")
+    assert rep.n_fragments == 1 < raw.n_fragments  # a half-plane cut does not part the box; the wedge frees slivers
+    apart = Crack(point=P_MID, normal=tilted(15.0), r_outer=1.0, side=side)
+    assert len(merge_coincident([a, apart], [EDGE, EDGE])) == 2

@@ -34,7 +34,7 @@ from bench.study_pattern import (
 )
 from bench.study_pattern import pane as make_pane
 from bench.study_pattern import rod as make_rod
-from sim.fracture_stage import surface_frame
+from sim.struck_surface import surface_frame
 from sph.cracks import threshold_speed
 
 
@@ -100,6 +100,35 @@ def test_surface_frame_takes_the_struck_face_not_the_contact_normal(pane):
     # without a striker (a collider), the reported point is projected onto the face
     point, _ = surface_frame(ps, 0, np.array([0.035, 0.0, 0.044]), reported_n, 0.02)
     assert point == pytest.approx([0.035, 0.0, 0.5 * THICK], abs=1e-12)
+
+
+@pytest.mark.parametrize("tilt_deg", [76.0, 80.0, 84.0, 30.0])
+def test_surface_frame_keeps_the_floor_normal_where_an_edge_bears_the_blow(tilt_deg):
+    """A 2 cm disc (the Tai Chi ornament's, 12 mm tets) landing on the edge between its rim and a face,
+    tilted 6-14 or 60 degrees off upright: the faces within one tet edge of the contact belong to both
+    surfaces, so there is no surface normal there and the analysis frame is the floor's (the load's)
+    normal, whatever mix of faces lies near. Standing upright on its rim (a smooth, faceted cylinder)
+    the frame is the rim's own normal, within the facets' 7.5 degrees (12 mm tets on a 10 cm radius)."""
+    from geometry.build import build_object
+    from geometry.particles import tet_edge
+
+    geo = build_object("taichi", shape_params=dict(radius=0.1, height=0.02), resolution=0.012)
+    ps = geo.particles
+    edge = float(tet_edge(float(np.median(ps.volume))))
+    corners = ps.rest_verts.reshape(-1, 3)
+
+    def floor_contact(deg: float):
+        t = math.radians(deg)  # the disc's axis is y; turned by t about x, it lands on the floor (+y up)
+        inward = np.array([0.0, math.cos(t), -math.sin(t)])  # the floor's normal in the disc's frame
+        return corners[int(np.argmin(corners @ inward))], inward
+
+    point, inward = floor_contact(tilt_deg)
+    _, normal = surface_frame(ps, 0, point, inward, edge)
+    assert normal == pytest.approx(inward, abs=1e-12)
+    point, inward = floor_contact(90.0)
+    _, normal = surface_frame(ps, 0, point, inward, edge)
+    rim = math.degrees(math.acos(min(1.0, float(normal @ inward))))
+    assert 0.0 < rim < 7.5
 
 
 # ----------------------------------------------------------------------------- a rod struck sideways
