@@ -123,6 +123,36 @@ def test_a_pane_struck_on_its_edge_cracks_through_its_thickness():
     assert pieces(p, an) >= 2
 
 
+def test_a_thin_axis_given_by_the_caller_holds_the_cracks_through_it():
+    """A crossing into a second material is analysed on that material's particles alone, where the
+    wall can read as thick; it takes the contact's thin axis (ImpactSpec.thin) instead. On the 8 mm
+    pane struck on its face and read as a half-space, the cracks lean through the thickness (cone
+    facets); given the pane's normal as the thin axis, every side lies in the pane. A thin axis that is
+    not a direction is refused with its key."""
+    import dataclasses
+
+    from bench.study_pattern import BALL, RES, THICK, glass, pane
+    from core.errors import ConfigError
+    from sph.cracks import ImpactSpec, analyse_impact, threshold_speed
+    from sph.kernel import kernel_isotropic
+
+    ps = pane().particles
+    spec = ImpactSpec(point=(0.001, 0.002, 0.5 * THICK), normal=(0.0, 0.0, -1.0), speed=1.0, m1=float(ps.mass.sum()),
+                      R1=math.inf, reference=(1.0, 0.0, 0.0), **BALL)
+
+    def strike(s: ImpactSpec):
+        G = kernel_isotropic(2 * RES)
+        return analyse_impact(ps.centroid, ps.volume, G, glass(), s, 3, THICK, field="halfspace")
+
+    spec = dataclasses.replace(spec, speed=3.0 * threshold_speed(strike(spec)))
+    free, held = strike(spec), strike(dataclasses.replace(spec, thin=(0.0, 0.0, 2.0)))
+    assert free.cracks and held.cracks and held.thin_axis == pytest.approx([0.0, 0.0, 1.0])
+    assert max(abs(float(c.side[2])) for c in free.cracks) > 0.1
+    assert all(abs(float(c.side[2])) < 1e-12 for c in held.cracks)
+    with pytest.raises(ConfigError, match="impact.thin"):
+        dataclasses.replace(spec, thin=(0.0, 0.0, 0.0))
+
+
 def test_one_analysis_crack_found_twice_is_cut_once(box):
     """Two half-discs of one analysis (one point) running the same way, their planes 8 degrees apart:
     beyond the reach rule (1 m x sin 8 degrees is 1.4 tet edges) but within the analysis' own accuracy
