@@ -158,9 +158,9 @@ def test_a_crack_changes_direction_in_the_other_material(turn_deg):
 
 @pytest.mark.parametrize("resolution", [0.012, 0.01])
 def test_the_tai_chi_parts_at_its_first_landing_without_slivers(resolution):
-    """Fig. 12 as the scene runs it (its 12 mm tets, and 10 mm): the first landing's cracks, the marble's from the rim
-    and the slate's on its cleavage, run through the disc's thickness and part it (a side leaning
-    through the thickness left a ligament), and no two of them lie within a tet of each other, so the
+    """Fig. 12 as the scene runs it (its 12 mm tets, and 10 mm): the first landing's cracks, the marble's from the rim's
+    edge and the slate's in the slate's own directions, run through the disc's thickness and part it (a
+    side leaning through the thickness left a ligament), and no two of them lie within a tet of each other, so the
     cut frees no sliver (two planes a degree apart freed 21 particles and cut 16 chips at 12 mm): every
     particle it frees lies in the shatter zone of the corner that lands (within the analysed support of
     the contact point), none along a crack."""
