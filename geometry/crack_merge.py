@@ -70,6 +70,12 @@ def _holder(crack: Crack, other: Crack, edge: float) -> Crack | None:
         cos = float(np.dot(big.side, small.side))
         if cos <= 0.0 or math.sqrt(max(0.0, 1.0 - cos * cos)) * big.r_outer >= edge:
             return None
+    return _longer(big, small)
+
+
+def _longer(a: Crack, b: Crack) -> Crack:
+    """The longer of two cracks that are one, carrying the larger of their shatter radii."""
+    big, small = (a, b) if a.r_outer >= b.r_outer else (b, a)
     return replace(big, r_inner=max(big.r_inner, small.r_inner), r_crush=max(big.r_crush, small.r_crush))
 
 
@@ -94,9 +100,7 @@ def merge_coincident(cracks: Sequence[Crack], edges: Sequence[float], history: S
     for crack, edge in zip(cracks, edges):
         twice = next((k for k, other in enumerate(kept) if _found_twice(crack, other)), None)
         if twice is not None:
-            big = kept[twice] if kept[twice].r_outer >= crack.r_outer else crack
-            kept[twice] = replace(big, r_inner=max(crack.r_inner, kept[twice].r_inner),
-                                  r_crush=max(crack.r_crush, kept[twice].r_crush))
+            kept[twice] = _longer(kept[twice], crack)
             continue
         joined = None
         for k, other in [(None, h) for h in history] + list(enumerate(kept)):  # k: index in kept, None: history
