@@ -56,6 +56,30 @@ def test_a_fracture_event_compiles_no_kernel_after_the_first_frame():
     assert late == [], late
 
 
+GROWN = SPY + """
+import geometry.particle_store as particle_store
+particle_store.HEADROOM = 1  # no room for one child: the event grows the store
+phase = "build"
+w = World(load_scene("glass_r3"))
+capacity = w.store.capacity
+phase = "first frame"
+w.step_frame()
+phase = "later"
+for _ in range(5):
+    w.step_frame()
+print(json.dumps(dict(compiled=compiled, events=len(w.events), capacity=capacity, grown=w.store.capacity)))
+"""
+
+
+def test_a_store_that_outgrows_its_capacity_compiles_no_kernel():
+    """A run whose particles outgrow the store's capacity (Pots' grains do, at frame 40) copies it
+    into a bigger one: that copy, for every column type, was compiled at build too."""
+    info = _probe(GROWN)
+    assert info["events"] >= 1 and info["grown"] > info["capacity"]  # the store did grow
+    late = [name for phase, name in info["compiled"] if phase == "later"]
+    assert late == [], late
+
+
 SECOND_WORLD = SPY + """
 from anisofrac.simulation import Simulation
 
