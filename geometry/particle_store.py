@@ -31,8 +31,8 @@ from geometry.particles import KIND_SUBDIVIDED, ParticleSet
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
 # rows per particle built: subdivision's children at the end of the paper scenes' runs make 2.2 (pot)
-# to 2.7 (glass_r3) rows per physical particle; growing (doubling) costs one compile of the copy
-# kernels in a process (~0.2 s), so the store starts with room for that
+# to 2.7 (glass_r3) rows per physical particle, so the store starts with room for that; Pots' grains
+# outgrow it (4.0 rows), and growing doubles it with a device copy whose kernels warm_kernels compiled
 HEADROOM = 4
 
 Arr = ti.types.ndarray()
