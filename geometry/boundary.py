@@ -14,7 +14,8 @@ Departure from the paper (docs/decisions.md): with the members' free faces given
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
 the surface (the paper keeps the mean position); one-particle spheres stay where they are. A
 covering sphere around several surface particles
-otherwise sticks out by about half a tet edge and objects rest visibly above the floor.
+otherwise sticks out by about half a tet edge and objects rest visibly above the floor. And a body
+whose spheres lie on a line (a chip) gets spheres at its corners instead (geometry/chip_corners.py).
 """
 
 from __future__ import annotations
@@ -106,13 +107,47 @@ def build_boundary_particles(
     if rest_verts is not None and free_faces is not None:
         c = _pull_inside(c, rad, g, centroid[members], rest_verts[members], free_faces[members])
     start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)
-    return BoundaryParticles(
+    out = BoundaryParticles(
         position=c,
         radius=rad,
         mass=msum,
         body=body[members[start[:-1]]].astype(np.int32),
         member_start=start,
         members=members,
+    )
+    return out if rest_verts is None else _chips_on_corners(out, rest_verts, mass)
+
+
+def _chips_on_corners(bp: BoundaryParticles, rest_verts: np.ndarray, mass: np.ndarray) -> BoundaryParticles:
+    """The spheres of every body whose spheres lie on a line replaced by its corners
+    (geometry/chip_corners.py); the other bodies' spheres unchanged, every body's still contiguous."""
+    from geometry.chip_corners import chip_corners, on_a_line
+
+    line = on_a_line(bp.body, bp.position, bp.radius)
+    if not line.any():
+        return bp
+    sizes = np.diff(bp.member_start)
+    sphere_of = np.repeat(np.arange(len(bp)), sizes)  # the sphere of each entry of bp.members
+    chip_body = np.unique(bp.body[line])
+    in_chips = line[sphere_of]
+    member_body = bp.body[sphere_of[in_chips]]  # spheres are contiguous per body: so are these members
+    cut = np.searchsorted(member_body, chip_body[1:])
+    pos, rad, m, member, chip = chip_corners(np.split(bp.members[in_chips], cut), rest_verts, mass)
+    keep = ~line
+    body = np.concatenate([bp.body[keep], chip_body[chip]])
+    size = np.concatenate([sizes[keep], np.ones(len(member), np.int64)])
+    members = np.concatenate([bp.members[keep[sphere_of]], member])
+    order = np.argsort(body, kind="stable")  # each body's spheres together, in body order
+    start = np.r_[0, np.cumsum(size[order])].astype(np.int64)
+    old_first = np.r_[0, np.cumsum(size)[:-1]]  # each sphere's first entry in `members` before the reorder
+    entry = np.repeat(old_first[order] - start[:-1], size[order]) + np.arange(start[-1])
+    return BoundaryParticles(
+        position=np.concatenate([bp.position[keep], pos])[order],
+        radius=np.concatenate([bp.radius[keep], rad])[order],
+        mass=np.concatenate([bp.mass[keep], m])[order],
+        body=body[order].astype(np.int32),
+        member_start=start,
+        members=members[entry],
     )
 
 

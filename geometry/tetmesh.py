@@ -24,6 +24,15 @@ def signed_volumes(points: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
 
 
+def insphere(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Incentres (T,3) m and inradii (T,) m of tets given as (T, 4, 3) vertex coordinates:
+    I = sum_i A_i v_i / sum A_i (A_i: the area of the face opposite vertex i), r = 3 |V| / sum A_i."""
+    faces = points[:, TET_FACES]  # (T, 4, 3, 3): face i is opposite vertex i
+    area = 0.5 * np.linalg.norm(np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0]), axis=2)
+    total = area.sum(1)
+    return np.einsum("ti,tij->tj", area, points) / total[:, None], 3.0 * np.abs(signed_volumes(points)) / total
+
+
 @dataclass
 class TetMesh:
     """A conforming tetrahedral mesh of one solid object, in metres."""

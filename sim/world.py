@@ -225,17 +225,17 @@ class World:
         self._input[1] = G  # (N, 3, 3) 1/m: rest kernel tensors in the reference frame
 
     def _build_rigid(self) -> None:
+        from geometry.chip_corners import CHIP_CORNERS
         from rigid.bodies import add_tet_body
         from rigid.world import RigidConfig, RigidWorld
 
         sc = self.cfg.scene
         n = len(self.particles)
-        # Capacities with the headroom fracture needs, so that the store never grows during a run (a
-        # bigger store recompiles every rigid kernel: a 2 s frame). Measured at the end of the paper
-        # scenes: boundary spheres 0.22-0.77 x the physical particles (crack faces add surface
-        # particles), bodies ever made up to 179 for the 84k particles of Pots (ids are never reused).
+        # Headroom for fracture, so the store never grows in a run (that recompiles every rigid kernel: 2 s).
+        # Measured at the paper scenes' ends: spheres 0.22-0.77 x the physical particles, bodies ever made
+        # up to 179 for Pots' 84k (ids are not reused); a chip's corners add CHIP_CORNERS - 1 per body at most.
         bodies = sc.body_capacity or max(64, 4 * len(self._spawn) + n // 16)
-        spheres = sc.sphere_capacity or max(64, n)
+        spheres = sc.sphere_capacity or max(64, n) + (CHIP_CORNERS - 1) * bodies
         self.rigid = RigidWorld(
             capacity_bodies=bodies,
             capacity_spheres=spheres,
