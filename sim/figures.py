@@ -79,14 +79,14 @@ FIGURES = (
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
-           "each other (97 large pieces); our count (581 against 587) is mostly the grains of "
+           "each other (87 large pieces); our count (566 against 587) is mostly the grains of "
            "crushed cores where shards strike each other. No zoom-in from above: the sheet keeps one camera per "
            "scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor (63 pieces "
+           "paper). The ball splits it where it lands and the parts break again on the floor (71 pieces "
            "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
            "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
