@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from core.errors import ConfigError
+from geometry.freeing import freed_particles
 from geometry.particles import ParticleSet, tet_edge
 
 Bodies = Iterable[int] | int | None  # body ids an operation touches (None = every body)
@@ -80,6 +81,16 @@ class ShatterField:
         level = self.level * (GRAIN_LEVEL if grains else 1.0) * np.cbrt(self.edge / e)
         r2 = np.maximum(self.support**2 * (1.0 - np.minimum(level, 1.0)), self.r_plug**2)
         return np.minimum(r2, self.cap**2)
+
+    def energy_ratio(self, dist2: np.ndarray, volume: np.ndarray) -> np.ndarray:
+        """(K,) -: u / u_limit of particles of these volumes (K,) m^3 at squared distances (K,) m^2
+        from P, ((1 - d^2/h^2) / (level (edge / e)^(1/3)))^3 (> 1 within `radius2`); 0 beyond the
+        support or the cap."""
+        level = self.level * np.cbrt(self.edge / np.maximum(tet_edge(volume), 1e-300))
+        s = np.clip(1.0 - dist2 / self.support**2, 0.0, None) if self.support > 0.0 else np.zeros(len(dist2))
+        with np.errstate(divide="ignore"):
+            ratio = np.where(np.isfinite(level), (s / level) ** 3, 0.0)
+        return np.where(dist2 < self.cap**2, ratio, 0.0)
 
     def radius(self, volume: float, grains: bool = False) -> float:
         """m: the radius for one particle volume."""
@@ -369,18 +380,35 @@ def shatter_radius2(crack: Crack, volume: np.ndarray, grains: bool = False) -> n
     return crack.shatter.radius2(volume, grains)
 
 
-def shatter_particles(ps: ParticleSet, crack: Crack, bodies: Bodies = None) -> tuple[ParticleSet, np.ndarray]:
-    """Particles whose rest centroid lies within the shatter radius of P (r_inner, or their size's by
-    the crack's ShatterField) lose all their links (debris).
+def shatter_particles(ps: ParticleSet, cracks: Crack | list[Crack],
+                      bodies: Bodies = None) -> tuple[ParticleSet, np.ndarray]:
+    """Particles the shatter zones of `cracks` (one event's) free lose all their links (debris): by
+    the energy each crack's ShatterField puts at their rest centroids, the largest for several, where
+    it pays for the faces they open (geometry/freeing.py); every particle within a plug (`r_plug`) or
+    a radius-only crack's r_inner.
 
     Returns a new ParticleSet and the ids of the shattered particles (ascending).
     """
-    if crack.r_inner <= 0.0 and crack.shatter is None:
+    cracks = [cracks] if isinstance(cracks, Crack) else list(cracks)
+    cracks = [c for c in cracks if c.r_inner > 0.0 or c.shatter is not None]
+    if not cracks:
         return ps, np.zeros(0, dtype=np.int64)
     idx = np.flatnonzero(body_mask(ps, bodies))
-    d = ps.centroid[idx] - crack.point
+    ratio = np.zeros(len(idx))
+    forced = np.zeros(len(idx), dtype=bool)
+    for crack in cracks:
+        d = ps.centroid[idx] - crack.point
+        d2 = np.einsum("ij,ij->i", d, d)
+        if crack.shatter is None:
+            forced |= d2 < crack.r_inner**2
+        else:
+            sf = crack.shatter
+            ratio = np.maximum(ratio, sf.energy_ratio(d2, ps.volume[idx]))
+            forced |= d2 < min(sf.r_plug, sf.cap) ** 2
+    near = (ratio > 0.0) | forced
+    idx, ratio, forced = idx[near], ratio[near], forced[near]
     debris = np.zeros(len(ps.alive), dtype=bool)
-    debris[idx[np.einsum("ij,ij->i", d, d) < shatter_radius2(crack, ps.volume[idx])]] = True
+    debris[idx[freed_particles(ps, idx, ratio, forced)]] = True
     links = ps.links.copy()
     links[debris] = -1
     links[(links >= 0) & debris[np.maximum(links, 0)]] = -1

@@ -110,11 +110,7 @@ def apply_cracks(
         # subdivided nor cut (its children would only become more debris); it leaves the bodies
         # while the cracks are cut and gets its own label at the end
         t0 = clock()
-        parts = []
-        for crack in cracks:
-            ps, ids = shatter_particles(ps, crack, bodies=bodies)
-            parts.append(ids)
-        debris = np.unique(np.concatenate(parts)) if parts else debris
+        ps, debris = shatter_particles(ps, cracks, bodies=bodies)
         if mode == "subdivision":  # the shattered core is crushed into grains below the particle size
             n_before = len(ps)
             ps, debris = pulverise(ps, debris, cracks)

@@ -24,11 +24,19 @@ def signed_volumes(points: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
 
 
+def face_areas_normals(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Areas (T, 4) m^2 and unit normals (T, 4, 3) of the face opposite each vertex of tets given as
+    (T, 4, 3) vertex coordinates (outward for positively oriented tets, TET_FACES)."""
+    faces = points[:, TET_FACES]  # (T, 4, 3, 3): face i is opposite vertex i
+    cross = np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0])
+    twice = np.linalg.norm(cross, axis=2)
+    return 0.5 * twice, cross / np.maximum(twice, 1e-300)[..., None]
+
+
 def insphere(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Incentres (T,3) m and inradii (T,) m of tets given as (T, 4, 3) vertex coordinates:
     I = sum_i A_i v_i / sum A_i (A_i: the area of the face opposite vertex i), r = 3 |V| / sum A_i."""
-    faces = points[:, TET_FACES]  # (T, 4, 3, 3): face i is opposite vertex i
-    area = 0.5 * np.linalg.norm(np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0]), axis=2)
+    area, _ = face_areas_normals(points)
     total = area.sum(1)
     return np.einsum("ti,tij->tj", area, points) / total[:, None], 3.0 * np.abs(signed_volumes(points)) / total
 
@@ -147,9 +155,7 @@ def quality_report(mesh: TetMesh) -> dict:
     """Tet quality: count, min/max volume, worst radius ratio (1 = regular, 0 = flat) and dihedral."""
     p = mesh.tet_points
     vol = signed_volumes(p)
-    faces = p[:, TET_FACES]  # (T, 4, 3, 3)
-    n = np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0])
-    areas = 0.5 * np.linalg.norm(n, axis=2)  # (T, 4)
+    areas, unit = face_areas_normals(p)  # (T, 4), (T, 4, 3)
     inradius = 3.0 * vol / areas.sum(1)
     # circumradius from the standard formula |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V)
     a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
@@ -160,7 +166,6 @@ def quality_report(mesh: TetMesh) -> dict:
     )
     circum = np.linalg.norm(num, axis=1) / np.maximum(12.0 * np.abs(vol), 1e-300)
     ratio = 3.0 * inradius / circum
-    unit = n / np.linalg.norm(n, axis=2, keepdims=True)
     pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
     dihedral = np.stack(
         [np.degrees(np.pi - np.arccos(np.clip((unit[:, i] * unit[:, j]).sum(1), -1, 1))) for i, j in pairs],
