@@ -51,19 +51,19 @@ FIGURES = (
             Row("pot", "adaptive subdivision (paper: right)", "Pot2", 14)),
            "Both pots break along a Y of three cracks into three large pieces as they land, and those "
            "break again when they land in turn (the cracks of a landing shard run through it: "
-           "docs/decisions.md, \"Crack arrest\"): five or six large pieces each, plus chips and single "
+           "docs/decisions.md, \"Crack arrest\"): five large pieces each, plus chips and single "
            "particles. Basic removal gives jagged cracks along tet faces and subdivision straight ones, as "
-           "in the paper; at this landing our adaptive pot gives fewer pieces than the basic one (12 against "
-           "14; the paper: 14 against 6). The first landing is the same in both (its shatter zone, 2.7 mm, "
+           "in the paper; at this landing our adaptive pot gives more pieces than the basic one (28 against "
+           "9; the paper: 14 against 6). The first landing is the same in both (its shatter zone, 2.7 mm, "
            "holds no particle to crush finer); the pieces' own landings decide the rest and are chaotic: "
-           "over the third rotation angle 6-14 degrees the medians are 24 (adaptive) and 17 (basic), in "
-           "the paper's order, and the basic pot's landings free whole particles."),
+           "over the third rotation angle 6-14 degrees the medians are 19 (adaptive) and 10 (basic), in "
+           "the paper's order: the adaptive pot's landings crush grains, the basic pot's free whole particles."),
     Figure(8, "The same scene of falling pot for anisotropic material with different kernel. The "
               "interaction along the surface is adjusted to 1/5 (left) and 3 (right) times",
            (Row("pot_aniso_low", "kernel x1/5 along the surface (paper: left)"),
             Row("pot_aniso_high", "kernel x3 along the surface (paper: right)")),
            "The kernel changes where the cracks run: x1/5 along the surface, the wall opens along long "
-           "cracks into four large pieces and 58 grains crushed where a piece lands on an edge; x3, the Y "
+           "cracks into four large pieces and 34 grains crushed where a piece lands on an edge; x3, the Y "
            "of the first landing parts the pot into four large pieces, no chips. The paper shows both pots "
            "broken, with different crack directions, and gives no counts for Fig. 8."),
     Figure(9, "A ball collapses through glass window, breaks into a hole and crack propagates without "
@@ -79,14 +79,14 @@ FIGURES = (
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
-           "each other (87 large pieces); our count (566 against 587) is mostly the grains of "
+           "each other (88 large pieces); our count (443 against 587) is mostly the grains of "
            "crushed cores where shards strike each other. No zoom-in from above: the sheet keeps one camera per "
            "scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor (71 pieces "
+           "paper). The ball splits it where it lands and the parts break again on the floor (55 pieces "
            "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
            "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
@@ -94,10 +94,10 @@ FIGURES = (
            (Row("taichi", "white marble and black slate halves", "Tai Chi", 87),),
            "Black and white halves as in the paper. The disc lands on the edge of its rim: the marble "
            "corner that lands is crushed (Hertz pressure about 1 GPa against marble's 100-200 MPa in "
-           "compression; 63 grains) and cracks run from it through the disc's thickness, one cutting a "
+           "compression; 56 grains) and cracks run from it through the disc's thickness, one cutting a "
            "chord off the bottom; where they reach the slate they go on in the slate's own directions "
            "with the energy they had left, so the two materials crack in different directions in one blow "
-           "(the lines drawn on the slate). Two large pieces and the grains: 66 in all against the "
+           "(the lines drawn on the slate). Six large pieces and the grains: 62 in all against the "
            "paper's 87. The count swings with the landing angle and the tet size (4-80 pieces over 76-84 "
            "degrees and 7.6-13 mm, docs/decisions.md, \"An edge or a corner has no normal\")."),
 )
