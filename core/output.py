@@ -52,6 +52,25 @@ def atomic_write_json(path: Path, data: dict) -> None:
     atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False) + "\n")
 
 
+# The numbered sequences a run writes into its folder, one file per frame (render/writers.py
+# FRAME_PATTERN, sim/export_frames.py): (subfolder, file glob). A run that overwrites a folder removes
+# an earlier run's first, or a shorter run would leave that run's later frames beside its own.
+FRAME_SEQUENCES = (("frames", "frame_*.png"), ("meshes", "frame_*.*"), ("vtu", "particles_*.vtu"),
+                   ("vtu", "particles.pvd"))
+
+
+def remove_frame_sequences(path: Path) -> int:
+    """Delete the per-frame files of an earlier run in the output folder `path` (FRAME_SEQUENCES);
+    returns how many."""
+    gone = 0
+    for sub, pattern in FRAME_SEQUENCES:
+        for f in (Path(path) / sub).glob(pattern):
+            if f.is_file():
+                f.unlink()
+                gone += 1
+    return gone
+
+
 def prepare_output_dir(path: Path, overwrite: bool) -> Path:
     """Create the output folder; refuse a non-empty one without `overwrite`, or an unwritable one."""
     path = Path(path)

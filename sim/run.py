@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.output import atomic_write_json, prepare_output_dir
+from core.output import atomic_write_json, prepare_output_dir, remove_frame_sequences
 from core.runtime import runtime
 from scenes.config import SceneConfig
 from sim.guards import state_hash
@@ -138,6 +138,8 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
     from sim.world import World
 
     out = prepare_output_dir(opts.out, opts.overwrite)
+    if opts.overwrite:
+        remove_frame_sequences(out)  # a shorter run must not leave an earlier one's frames behind
     frames = opts.frames or cfg.scene.frames
     own = world is None
     world = World(cfg) if own else world

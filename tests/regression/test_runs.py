@@ -54,6 +54,21 @@ def test_existing_output_folder_is_not_overwritten(tmp_path):
     assert (tmp_path / "keep.txt").read_text() == "mine"
 
 
+def test_an_overwritten_folder_holds_only_the_new_runs_frames(tmp_path):
+    """A run of 4 frames into a folder that holds a 6-frame run's frames, meshes and particle series
+    (--overwrite) leaves 4 of each, the series file listing 4, and the user's own file."""
+    cfg = load_scene("tet_cut_31")
+    out = tmp_path / "t"
+    opts = dict(out=out, renderer="raster", video="none", width=64, height=48, meshes="obj", vtu=True, progress=False)
+    run(cfg, RunOptions(frames=6, **opts))
+    (out / "notes.txt").write_text("mine")
+    run(cfg, RunOptions(frames=4, overwrite=True, **opts))
+    for sub, pattern in (("frames", "frame_*.png"), ("meshes", "frame_*.obj"), ("vtu", "particles_*.vtu")):
+        assert len(list((out / sub).glob(pattern))) == 4, sub
+    assert (out / "vtu" / "particles.pvd").read_text().count("<DataSet") == 4
+    assert (out / "notes.txt").read_text() == "mine"
+
+
 def test_fragment_meshes_and_vtu_series(tmp_path):
     import meshio
     import trimesh
