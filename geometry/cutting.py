@@ -5,8 +5,9 @@ normal n) within `r_outer` of P, restricted to the half-plane (x - P) . side >= 
 in-plane direction `side` (a half-disc); `side = None` gives the full disc. `r_inner > 0` marks the
 shatter radius: every particle whose rest centroid lies within it loses all its links (debris).
 A crack from an impact analysis also carries its `ShatterField`, the shatter energy's spread around
-P, so that each particle is freed by its own size: a smaller particle needs a higher energy density
-(r_inner is then the radius for particles of the reference size).
+P, so that each particle is freed by its own size (a smaller particle needs a higher energy density)
+and by the crack faces it opens (geometry/freeing.py); r_inner is then the radius within which
+particles of the reference size, inside a zone of freed ones, are freed.
 
 Link-removal rule (both modes, one rule for face links and extra links): the link between
 particles i and j is removed when the segment joining their rest centroids crosses the crack
@@ -51,8 +52,9 @@ GRAIN_LEVEL = GRAINS_PER_PARTICLE ** (1.0 / 9.0)
 @dataclass(frozen=True)
 class ShatterField:
     """The shatter energy U spread around P by the poly6 kernel of support h (sph/cracks.py step 8):
-    u(d) = 315/(64 pi h^9) (h^2 - d^2)^3 U / w. A particle of tet edge e is freed where u exceeds its
-    own u_limit = G_c A / (2 V) ~ 1/e, i.e. within
+    u(d) = 315/(64 pi h^9) (h^2 - d^2)^3 U / w. Inside a zone of freed particles, a particle of tet edge
+    e is freed where u exceeds its own u_limit = G_c A / (2 V) ~ 1/e (elsewhere by the faces it opens,
+    `energy_ratio` and geometry/freeing.py), i.e. within
 
         d^2 < h^2 (1 - level (edge / e)^(1/3)),   level = (64 pi h^9 u_limit(edge) w / (315 U))^(1/3) / h^2,
 
