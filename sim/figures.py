@@ -57,7 +57,8 @@ FIGURES = (
            "9; the paper: 14 against 6). The first landing is the same in both (its shatter zone, 2.7 mm, "
            "holds no particle to crush finer); the pieces' own landings decide the rest and are chaotic: "
            "over the third rotation angle 6-14 degrees the medians are 19 (adaptive) and 10 (basic), in "
-           "the paper's order: the adaptive pot's landings crush grains, the basic pot's free whole particles."),
+           "the paper's order. The adaptive pot's single particles are children cut off between the cracks "
+           "of its pieces' landings; the basic pot's landings free whole particles."),
     Figure(8, "The same scene of falling pot for anisotropic material with different kernel. The "
               "interaction along the surface is adjusted to 1/5 (left) and 3 (right) times",
            (Row("pot_aniso_low", "kernel x1/5 along the surface (paper: left)"),
@@ -79,8 +80,9 @@ FIGURES = (
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
-           "each other (88 large pieces); our count (443 against 587) is mostly the grains of "
-           "crushed cores where shards strike each other. No zoom-in from above: the sheet keeps one camera per "
+           "each other (88 large pieces); of our 443 pieces (587 in the paper) 255 are "
+           "grains and particles shattered where shards strike each other, 61 single particles cut off "
+           "between cracks. No zoom-in from above: the sheet keeps one camera per "
            "scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
@@ -94,7 +96,7 @@ FIGURES = (
            (Row("taichi", "white marble and black slate halves", "Tai Chi", 87),),
            "Black and white halves as in the paper. The disc lands on the edge of its rim: the marble "
            "corner that lands is crushed (Hertz pressure about 1 GPa against marble's 100-200 MPa in "
-           "compression; 56 grains) and cracks run from it through the disc's thickness, one cutting a "
+           "compression; 55 grains) and cracks run from it through the disc's thickness, one cutting a "
            "chord off the bottom; where they reach the slate they go on in the slate's own directions "
            "with the energy they had left, so the two materials crack in different directions in one blow "
            "(the lines drawn on the slate). Six large pieces and the grains: 62 in all against the "
