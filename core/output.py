@@ -59,16 +59,12 @@ FRAME_SEQUENCES = (("frames", "frame_*.png"), ("meshes", "frame_*.*"), ("vtu", "
                    ("vtu", "particles.pvd"))
 
 
-def remove_frame_sequences(path: Path) -> int:
-    """Delete the per-frame files of an earlier run in the output folder `path` (FRAME_SEQUENCES);
-    returns how many."""
-    gone = 0
+def remove_frame_sequences(path: Path) -> None:
+    """Delete the per-frame files of an earlier run in the output folder `path` (FRAME_SEQUENCES)."""
     for sub, pattern in FRAME_SEQUENCES:
         for f in (Path(path) / sub).glob(pattern):
             if f.is_file():
                 f.unlink()
-                gone += 1
-    return gone
 
 
 def prepare_output_dir(path: Path, overwrite: bool) -> Path:

@@ -10,6 +10,7 @@ import pytest
 
 from core.errors import ConfigError
 from geometry.particles import build_particles
+from geometry.tetmesh import face_areas_normals
 from rigid.bodies import add_box_body, ball_tetmesh, box_tetmesh
 from rigid.mass import mass_properties, static_mass_properties
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
@@ -324,12 +325,10 @@ def test_single_tet_fragment_falls_and_rests(fresh):
     # a chip: it stands on spheres at its four corners (geometry/chip_corners.py), on one of its faces:
     # its centre of mass that face's distance from the centroid above the floor, plus at most a corner
     # sphere's radius (the spheres poke out of the faces at the corners), and it came to rest
-    heights = []
-    for f in range(4):  # the face opposite vertex f
-        a, p, q = np.roll(ps.rest_verts[2], -f, axis=0)[1:]
-        n = np.cross(p - a, q - a)
-        heights.append(abs(float(np.dot(ps.centroid[2] - a, n))) / np.linalg.norm(n))
-    lift = float(st.x[b, 1]) - np.array(heights)
+    _, normal = face_areas_normals(ps.rest_verts[2:3])  # (1, 4, 3): the face opposite each vertex
+    opposite = ps.rest_verts[2, (np.arange(4) + 1) % 4]  # a vertex on each of those faces
+    heights = np.abs(np.einsum("fc,fc->f", ps.centroid[2] - opposite, normal[0]))
+    lift = float(st.x[b, 1]) - heights
     assert np.any((lift > -1e-4) & (lift < w.sphere_data()[1].max()))
     assert st.asleep[b]
 
