@@ -239,17 +239,18 @@ def split_body(
     rest = float(world._hb.restitution[body_id])
     fric = float(world._hb.friction[body_id])
     bp = boundary_spheres(particles, ids, dense, group_size)
+    by_label = np.split(ids[np.argsort(dense, kind="stable")], np.cumsum(np.bincount(dense, minlength=len(uniq)))[:-1])
+    sphere_cut = np.searchsorted(bp.body, np.arange(len(uniq) + 1))  # bp's spheres come in label order
     specs = []
     masses: list[MassProperties] = []
-    for c in range(len(uniq)):
-        sel = ids[dense == c]
+    for c, sel in enumerate(by_label):  # sel: the particles of label c, ascending
         mp = mass_properties(
             particles.rest_verts[sel], particles.mass[sel], source=f"fragment {c} of body {body_id}"
         )
         masses.append(mp)
         x_c = rot @ (mp.com - com_p) + x_p
         v_c = v_p + np.cross(w_p, x_c - x_p)
-        sph = bp.body == c
+        sph = slice(sphere_cut[c], sphere_cut[c + 1])
         static_c = static if static_labels is None else bool(held[uniq[c]])
         specs.append(
             dict(
@@ -267,8 +268,8 @@ def split_body(
         )
     world.remove_bodies([body_id])
     new_ids = world.add_bodies(specs)
-    for c, bid in enumerate(new_ids):
-        particles.body[ids[dense == c]] = bid
+    for sel, bid in zip(by_label, new_ids):
+        particles.body[sel] = bid
     return new_ids
 
 

@@ -412,7 +412,7 @@ class RigidWorld(HostSync):
         st = state or self._download_bodies(self._nb)
         sel = slice(None) if spheres is None else np.asarray(spheres, dtype=np.int64)
         b = self._sph_body[sel]
-        rot = quat_to_matrix(st.q[b])
+        rot = quat_to_matrix(st.q[: self._nb])[b]  # one matrix per body, gathered (Pots: 150 bodies, 50k spheres)
         return np.einsum("nij,nj->ni", rot, self._sph_local[sel].astype(np.float64)) + st.x[b]
 
     def contact_events(self) -> ContactEvents:
