@@ -161,9 +161,11 @@ class SceneView:
         # the objects' surface at rest, indexed once: asked after every fracture event
         self._rest = RestSurface(rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3)))
         rest = self._rest.tris
-        # room for the crack faces and debris of the first events: a larger buffer is a new Taichi
-        # field, and every render kernel recompiles for it (about 2 s)
+        # room for the crack faces and debris of the first events, and a pose for every body the rigid
+        # store can hold: a larger buffer is a new Taichi field, and the render kernels that read it
+        # recompile (about 2 s for the surfaces; Pots' pose buffer grew past 64 and 128 bodies, 0.1-0.2 s)
         self.scene = RenderScene(tri_capacity=SURFACE_HEADROOM * len(rest) + 2,
+                                 body_capacity=world.rigid.capacity["bodies"] if "rigid" in world.stages else 0,
                                  particle_capacity=world.physical_count if "debris" in world.stages else 0,
                                  lighting=Lighting.studio())
         self._version = -1

@@ -121,15 +121,18 @@ for _ in range(5):
     w.step_frame()
     session.draw()
 print(json.dumps(dict(compiled=compiled, events=len(w.events), debris=w.debris.count,
-                      drawn_particles=session.view.scene.n_particles)))
+                      drawn_particles=session.view.scene.n_particles, pose_capacity=session.view.scene.cap["pose"],
+                      body_capacity=w.rigid.capacity["bodies"])))
 """
 
 
 def test_drawn_frames_compile_no_kernel_after_the_first():
     """Drawn with the rasteriser, the frames of an event (surface blocks written, debris drawn as
-    particles for the first time) compile nothing after the first frame either."""
+    particles for the first time) compile nothing after the first frame either; and the pose buffer
+    holds every body the rigid store can (Pots' grew past 64 and 128 bodies, recompiling the transform)."""
     info = _probe(DRAWN)
     assert info["events"] >= 1 and info["debris"] > 0 and info["drawn_particles"] > 0
+    assert info["pose_capacity"] >= info["body_capacity"]
     late = [name for phase, name in info["compiled"] if phase == "later"]
     assert late == [], late
 
