@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.arrays import unique_rows
 from geometry.tetmesh import TetMesh, face_adjacency, signed_volumes
 
 KIND_PHYSICAL = 0  # a particle made from an input tet
@@ -69,7 +70,7 @@ class ParticleSet:
         if len(self.extra_links):
             pairs = np.concatenate([pairs, self.extra_links])
         pairs = np.sort(pairs, axis=1)
-        return np.unique(pairs, axis=0)
+        return unique_rows(pairs)
 
 
 def build_particles(

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.arrays import unique_rows
 from core.errors import ConfigError, MeshError
 from geometry.cutting import Bodies, Crack, body_mask, lex_less, section_meets_region, signed_distance
 from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED, ParticleSet
@@ -418,7 +419,7 @@ def _link_old_pieces(ps, ch_faces, tag, ch_parent, matched, old, new_ids, links)
             ov = coplanar_overlap(tri_c[part], tri_x[part])
             new_extra = np.stack([c_id[part][ov], x[part][ov]], axis=1)
     if len(new_extra):
-        new_extra = np.unique(np.sort(new_extra, axis=1), axis=0)
+        new_extra = unique_rows(np.sort(new_extra, axis=1))
     return new_extra
 
 
@@ -492,5 +493,5 @@ def subdivide(
     keep_ex = ex[~ex_par]
     extra = np.concatenate([keep_ex, new_extra]) if len(new_extra) else keep_ex.copy()
     if len(extra):
-        extra = np.unique(np.sort(extra, axis=1), axis=0)
+        extra = unique_rows(np.sort(extra, axis=1))
     return with_children(ps, parents, ch_parent, ch_verts, ch_vol, links, extra), rep

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.arrays import unique_rows
 from core.errors import MeshError
 
 TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -79,8 +80,7 @@ def face_adjacency(tets: np.ndarray, source: str = "<mesh>") -> np.ndarray:
     """
     n = len(tets)
     faces = np.sort(tets[:, TET_FACES].reshape(-1, 3), axis=1)  # (4T, 3)
-    _, inverse, counts = np.unique(faces, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
+    _, inverse, counts = unique_rows(faces, return_inverse=True, return_counts=True)
     if counts.size and counts.max() > 2:
         bad = int(np.argmax(counts[inverse] > 2))
         raise MeshError(

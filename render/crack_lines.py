@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.arrays import unique_rows
+
 LINE_WIDTH_REL = 0.12  # -: ribbon width as a share of the median edge of the objects' rest surface
 LIFT_REL = 0.02  # -: ribbon lifted off its face by this share of the same edge
 LINE_DARK = (0.10, 0.09, 0.08)  # -: linear RGB of a crack line on a light opaque body (a shadowed seam)
@@ -39,8 +41,7 @@ def rim_edges(faces: np.ndarray, outer: np.ndarray) -> tuple[np.ndarray, np.ndar
         return np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
     directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)  # edge k of face f at row 3 f + k
     face = np.repeat(np.arange(len(faces)), 3)
-    _, edge = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True)
-    edge = edge.ravel()
+    _, edge = unique_rows(np.sort(directed, axis=1), return_inverse=True)
     on_crack = np.bincount(edge, weights=~outer[face], minlength=int(edge.max()) + 1) > 0
     rows = np.flatnonzero(outer[face] & on_crack[edge])
     return directed[rows], face[rows]

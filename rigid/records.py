@@ -8,6 +8,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from core.arrays import unique_rows
 from core.errors import ConfigError
 
 
@@ -143,8 +144,7 @@ class ContactEvents:
                 normal=np.zeros((0, 3)),
             )
         pairs = np.stack([ev.body_a, ev.body_b], 1)
-        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
-        inv = inv.ravel()
+        uniq, inv = unique_rows(pairs, return_inverse=True)
         m = len(uniq)
         imp = np.bincount(inv, weights=ev.normal_impulse, minlength=m)
         speed = np.full(m, np.inf)

@@ -1,0 +1,40 @@
+"""Array helpers shared by the geometry, rigid and render code (numpy only).
+
+`unique_rows` is `np.unique(rows, axis=0)` for integer rows (tet faces, links, edges, body pairs) by one
+int64 key per row: numpy sorts rows as a structured view, about 10x slower (150k sorted vertex pairs:
+157 ms against 16 ms). The keys sort as the rows do, so the result is the same, bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+KEY_LIMIT = 1 << 62  # largest product of the column spans packed into one int64 key
+
+
+def unique_rows(rows: np.ndarray, return_inverse: bool = False, return_counts: bool = False):
+    """What `np.unique(rows, axis=0, return_inverse=..., return_counts=...)` returns for an (N, K)
+    integer array: the distinct rows in lexicographic order, then the (N,) index of each row's distinct
+    row and the count of each, as asked."""
+    rows = np.asarray(rows)
+    if rows.ndim != 2 or not np.issubdtype(rows.dtype, np.integer):
+        raise ValueError(f"unique_rows takes an (N, K) integer array, got shape {rows.shape} of {rows.dtype}")
+    if len(rows) == 0:
+        return np.unique(rows, axis=0, return_inverse=return_inverse, return_counts=return_counts)
+    lo = rows.min(axis=0).astype(np.int64)
+    span = rows.max(axis=0).astype(np.int64) - lo + 1
+    if float(np.prod(span.astype(np.float64))) >= KEY_LIMIT:  # no room for one key: numpy's own way
+        return np.unique(rows, axis=0, return_inverse=return_inverse, return_counts=return_counts)
+    key = np.zeros(len(rows), dtype=np.int64)
+    for c in range(rows.shape[1]):  # mixed radix, first column most significant: sorts like the rows
+        key = key * span[c] + (rows[:, c].astype(np.int64) - lo[c])
+    _, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+    out = (rows[first],)
+    if return_inverse:
+        out += (inverse.ravel(),)
+    if return_counts:
+        out += (counts,)
+    return out if len(out) > 1 else out[0]
+
+
+__all__ = ["unique_rows"]

@@ -1,0 +1,33 @@
+"""core/arrays.py: unique_rows gives what np.unique(rows, axis=0) gives, bit for bit."""
+
+import numpy as np
+import pytest
+
+from core.arrays import unique_rows
+
+
+@pytest.mark.parametrize("shape, lo, hi", [((500, 2), 0, 40), ((800, 3), -5, 12), ((300, 2), -1, 3), ((1, 4), 7, 8)])
+def test_unique_rows_matches_numpy(shape, lo, hi):
+    rows = np.random.default_rng(3).integers(lo, hi, shape)
+    want_u, want_inv, want_cnt = np.unique(rows, axis=0, return_inverse=True, return_counts=True)
+    got_u, got_inv, got_cnt = unique_rows(rows, return_inverse=True, return_counts=True)
+    assert np.array_equal(got_u, want_u) and got_u.dtype == rows.dtype
+    assert np.array_equal(got_inv, want_inv.ravel()) and np.array_equal(got_cnt, want_cnt)
+    assert np.array_equal(unique_rows(rows), want_u)
+    assert np.array_equal(got_u[got_inv], rows)  # every row is its distinct row
+
+
+def test_unique_rows_spans_too_wide_for_one_key_and_empty_input():
+    rows = np.array([[0, 0, 0], [2**40, 2**40, 1], [0, 0, 0], [-(2**40), 5, 5]], dtype=np.int64)
+    want = np.unique(rows, axis=0, return_inverse=True)
+    got = unique_rows(rows, return_inverse=True)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1].ravel())
+    empty = np.zeros((0, 2), np.int64)
+    assert unique_rows(empty).shape == (0, 2)
+
+
+def test_unique_rows_refuses_what_it_does_not_handle():
+    with pytest.raises(ValueError, match="integer"):
+        unique_rows(np.zeros((3, 2)))
+    with pytest.raises(ValueError, match=r"\(N, K\)"):
+        unique_rows(np.zeros(3, np.int64))
