@@ -320,6 +320,11 @@ class ParticleStore:
         self._append_extra(particles.extra_links)
         self._changed(np.unique(particles.body[particles.body >= 0]))
         self.transfers.append(("reset", n))
+        # what host() would download now is what was just uploaded: kept, so a start compiles no
+        # download kernel (six of Taichi's to_numpy kernels, 0.1 s before the first frame); copies,
+        # so that the caller's arrays stay its own and writable
+        cols = {name: col.copy() for name, col in host.items()}
+        self._keep_host(_particle_set(cols, particles.extra_links.copy()), cols["particle_kernel"])
 
     def release(self) -> None:
         for name in (*_FIXED, *_CHANGING, "particle_slot", "select_ids", "link_extra", "link_extra_alive",
@@ -449,12 +454,14 @@ class ParticleStore:
             alive = self.link_extra_alive.to_numpy()[: self.extra_count] != 0
             pairs = self.link_extra.to_numpy()[: self.extra_count][alive].astype(np.int64)
             self.transfers.append(("host", n))
-            ps = _particle_set(cols, pairs)
-            G = cols["particle_kernel"]
-            for a in (*vars(ps).values(), G):
-                a.flags.writeable = False
-            self._host = (self.version, ps, G)
+            self._keep_host(_particle_set(cols, pairs), cols["particle_kernel"])
         return self._host[1], self._host[2]
+
+    def _keep_host(self, ps: ParticleSet, G: np.ndarray) -> None:
+        """The store's content at this version, read-only, for host() to return."""
+        for a in (*vars(ps).values(), G):
+            a.flags.writeable = False
+        self._host = (self.version, ps, G)
 
 
 # ------------------------------------------------------------------------------------------ helpers

@@ -151,11 +151,15 @@ def _k_transform(n_tri: ti.i32, n_body: ti.i32, corner_ref: ti.template(), corne
 
 @ti.kernel
 def _k_body_bounds(n_tri: ti.i32, n_p: ti.i32, corner_x: ti.template(), corner_body: ti.template(),
-                     particle_x: ti.template(), particle_r: ti.template(), bounds: ti.template()):
+                     particle_x: ti.template(), particle_r: ti.template(), bounds: ti.template(),
+                     out: ti.types.ndarray()):
     """World box of the bodies' triangles (not static world geometry such as the floor) and of n_p
-    particles: bounds[0] = lo, bounds[1] = hi (reset by the caller). Each parallel task reduces a
-    block of BOUNDS_BLOCK corners in registers and then updates the box once: one atomic per block
-    instead of one per corner (they all hit the same six numbers)."""
+    particles: out[0] = lo, out[1] = hi (2, 3), through the field `bounds`. Each parallel task reduces
+    a block of BOUNDS_BLOCK corners in registers and then updates the box once: one atomic per block
+    instead of one per corner (they all hit the same six numbers). One launch a frame, no from_numpy
+    or to_numpy (each a kernel of Taichi's own, compiled at the first frame)."""
+    bounds[0] = ti.Vector([1e30, 1e30, 1e30])
+    bounds[1] = -bounds[0]
     nc = 3 * n_tri
     for blk in range((nc + n_p + BOUNDS_BLOCK - 1) // BOUNDS_BLOCK):
         lo = ti.Vector([1e30, 1e30, 1e30])
@@ -172,6 +176,9 @@ def _k_body_bounds(n_tri: ti.i32, n_p: ti.i32, corner_x: ti.template(), corner_b
         for k in ti.static(range(3)):
             ti.atomic_min(bounds[0][k], lo[k])
             ti.atomic_max(bounds[1][k], hi[k])
+    for k in range(3):
+        out[0, k] = bounds[0][k]
+        out[1, k] = bounds[1][k]
 
 
 @ti.kernel
@@ -241,11 +248,10 @@ class RenderScene:
         self._alloc("pose", body_capacity)
         self._alloc("part", particle_capacity)
         self._alloc("line", line_capacity)
-        # compiled now, not at the first fracture event's refresh
-        _k_put_corners(0, 0, *_corner_arrays([], "render.surfaces"), self.corner_ref, self.corner_body,
-                       self.corner_color, self.corner_look)
+        # compiled now, not at the first fracture event's refresh: the blanking, and the corner writes
+        # (blocks and compaction) through the first write of the (empty) buffers
         _k_blank_corners(0, 0, self.corner_ref, self.corner_body)
-        self._write_all_blocks()  # and Taichi's from_numpy kernels of the corner fields (compaction)
+        self._write_all_blocks()
 
     # ---- allocation ------------------------------------------------------------------------------
     def _alloc(self, kind: str, needed: int) -> None:
@@ -318,12 +324,14 @@ class RenderScene:
         n_tri = sum(len(d[1]) // 3 for d in data)
         self._alloc("surf", n_tri)
         nc = 3 * self.cap["surf"]
-        for k, (fld, fill) in enumerate(((self.corner_ref, 0.0), (self.corner_body, -1), (self.corner_color, 0.0),
-                                         (self.corner_look, 1.0))):
+        padded = []  # the corners, then the unused slots (static, blank) up to the capacity
+        for k, fill in enumerate((0.0, -1, 0.0, 1.0)):
             a = np.concatenate([d[k] for d in data])
-            out = np.full((nc,) + a.shape[1:], fill, dtype=a.dtype)
-            out[: len(a)] = a
-            fld.from_numpy(out)
+            padded.append(np.full((nc,) + a.shape[1:], fill, dtype=a.dtype))
+            padded[-1][: len(a)] = a
+        # the kernel a fracture event writes its blocks with (compiled with the scene), not a
+        # from_numpy per field (four of Taichi's own kernels, compiled at the first frame)
+        _k_put_corners(0, nc, *padded, self.corner_ref, self.corner_body, self.corner_color, self.corner_look)
         start = 0
         for key, d in self._block_data.items():
             self._blocks[key] = (start, len(d[1]) // 3)
@@ -429,12 +437,10 @@ class RenderScene:
         lo > hi when there is nothing."""
         if self._bounds is None:
             self._alloc("bounds", 2)
-        big = 1e30
-        self._bounds.from_numpy(np.array([[big] * 3, [-big] * 3], dtype=numpy_float()))
+        out = np.empty((2, 3), dtype=np.float64)
         _k_body_bounds(self.n_tris, self.n_particles if particles else 0, self.corner_x, self.corner_body,
-                       self.particle_x, self.particle_r, self._bounds)
-        lo, hi = self._bounds.to_numpy().astype(np.float64)
-        return lo, hi
+                       self.particle_x, self.particle_r, self._bounds, out)
+        return out[0], out[1]
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World axis-aligned bounds (lo, hi) of everything drawn (host copy: not for every frame)."""

@@ -55,6 +55,22 @@ class _DebrisArrays:
         self.capacity, self.n_col_slots = cap, ncol
 
     @ti.kernel
+    def _k_set_colliders(self, n: ti.i32, kind: ti.types.ndarray(), x: ti.types.ndarray(), nrm: ti.types.ndarray(),
+                         rot: ti.types.ndarray(), half: ti.types.ndarray(), e: ti.types.ndarray(),
+                         mu: ti.types.ndarray()):
+        """The colliders' rows from host arrays: one kernel, where a from_numpy per field compiled seven
+        (about 0.15 s of every start with debris)."""
+        for c in range(n):
+            self.col_kind[c] = kind[c]
+            self.col_x[c] = ti.math.vec3(x[c, 0], x[c, 1], x[c, 2])
+            self.col_n[c] = ti.math.vec3(nrm[c, 0], nrm[c, 1], nrm[c, 2])
+            self.col_half[c] = ti.math.vec3(half[c, 0], half[c, 1], half[c, 2])
+            for a, b in ti.static(ti.ndrange(3, 3)):
+                self.col_rot[c][a, b] = rot[c, a, b]
+            self.col_e[c] = e[c]
+            self.col_mu[c] = mu[c]
+
+    @ti.kernel
     def _k_set_v(self, k: ti.i32, index: ti.types.ndarray(), v: ti.types.ndarray()):
         for i in range(k):
             self.debris_v[index[i]] = ti.math.vec3(v[i, 0], v[i, 1], v[i, 2])
@@ -182,11 +198,7 @@ class DebrisStore:
                 rot[k] = c.get("rot", np.eye(3))
             e[k], mu[k] = c["restitution"], c["friction"]
         fdt = numpy_float()
-        d = self._a
-        d.col_kind.from_numpy(kind)
-        for fld, a in ((d.col_x, x), (d.col_n, nrm), (d.col_rot, rot), (d.col_half, half), (d.col_e, e),
-                       (d.col_mu, mu)):
-            fld.from_numpy(a.astype(fdt))
+        self._a._k_set_colliders(n, kind, *(a.astype(fdt) for a in (x, nrm, rot, half, e, mu)))
         self.n_colliders = len(self._colliders)
 
     def release(self) -> None:

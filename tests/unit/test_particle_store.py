@@ -48,6 +48,15 @@ def test_a_round_trip_is_exact():
     host, G2 = store.host()
     _same(ps, host)
     assert np.array_equal(G, G2) and not host.volume.flags.writeable  # an output copy, read-only
+    # the copy kept from the upload (no download at a start) is what the device holds, and not the
+    # caller's arrays: theirs stay writable and changing them changes no copy
+    ids, every, G_all, _ = store.take_bodies([0, 1])
+    assert np.array_equal(ids, np.arange(len(ps)))
+    _same(every, host)
+    assert np.array_equal(G_all, G2) and ps.volume.flags.writeable
+    ps.volume[0] *= 2.0
+    assert host.volume[0] == every.volume[0]
+    ps.volume[0] /= 2.0
     ids, part, G_part, _ = store.take_bodies([1])
     assert np.array_equal(ids, np.flatnonzero(ps.body == 1))
     # local ids: the body's links stay inside it (a block's tets link only to its own)
