@@ -380,7 +380,8 @@ class ParticleStore:
         """Launch every kernel of an event and of a frame after it once on nothing (issue 16: no
         compile after the build), growth and compaction included: HEADROOM x the particles does not
         hold every run (Pots' grains outgrew it at frame 40, and compiling the copy for its five
-        column types stalled that frame 190 ms)."""
+        column types stalled that frame 190 ms). Changes nothing: the host copy stays valid."""
+        version, host = self.version, self._host
         ids, ps, G, rows = self.take_bodies([])
         self.put_body(ids, ps, G, rows)
         self.take_mass(np.zeros(0, np.int64))
@@ -390,6 +391,7 @@ class ParticleStore:
             _k_copy_store(0, column, column)  # one compile per dtype and rank; copies no row
         _k_compact_extra(0, self.link_extra, self.link_extra_alive)
         self.transfers.clear()
+        self.version, self._host = version, host
 
     def global_ids(self, ids: np.ndarray, n_local: int) -> np.ndarray:
         """(n_local,) store id of every row of a local set taken as `ids`: the gathered rows keep
