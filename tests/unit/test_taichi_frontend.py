@@ -153,3 +153,36 @@ def test_single_thread_runs_build_their_outermost_range_loops_serial():
     assert first_above(50) == 8 and first_above(1000) == -1
     assert fill_and_sum() == int((np.arange(16) ** 2).sum())
     np.testing.assert_array_equal(grid.to_numpy(), 2 * (np.arange(16).reshape(4, 4) + 1))
+
+
+def test_drawing_kernels_keep_their_loops_parallel_on_every_core():
+    """In a one-thread run the render package's kernels are built with Taichi's parallel loops (their
+    pixels and triangles are independent, or meet in atomic maxima), on a pool of one thread per core:
+    Taichi refuses a `break` in such a loop, while the same kernel elsewhere is serial and finds the
+    first match. The simulation's reported thread count stays 1."""
+    from taichi.lang import impl
+    from taichi.lang.ast import ast_transformer
+
+    from core.host_threads import host_cores
+    from core.runtime import PARALLEL_MODULES, ensure_runtime
+
+    info = ensure_runtime()
+    if not getattr(ast_transformer.ASTTransformer.build_For, "serial_loops", False):
+        return  # CUDA, or several CPU threads: every loop is Taichi's own
+    assert info.threads == 1 and impl.current_cfg().cpu_max_num_threads == host_cores()
+    values = ti.field(ti.i32, shape=8)
+    values.from_numpy(np.arange(8, dtype=np.int32))
+
+    def first_above(limit: ti.i32) -> ti.i32:
+        hit = -1
+        for i in range(8):
+            if values[i] > limit:
+                hit = i
+                break
+        return hit
+
+    serial = ti.kernel(first_above)
+    assert serial(4) == 5
+    first_above.__module__ = PARALLEL_MODULES[0] + "probe"  # as if defined in the render package
+    with pytest.raises(Exception, match="outermost loop"):
+        ti.kernel(first_above)(4)
