@@ -20,16 +20,19 @@ def unique_rows(rows: np.ndarray, return_inverse: bool = False, return_counts: b
     if rows.ndim != 2 or not np.issubdtype(rows.dtype, np.integer):
         raise ValueError(f"unique_rows takes an (N, K) integer array, got shape {rows.shape} of {rows.dtype}")
     if len(rows) == 0:
-        return np.unique(rows, axis=0, return_inverse=return_inverse, return_counts=return_counts)
-    lo = rows.min(axis=0).astype(np.int64)
-    span = rows.max(axis=0).astype(np.int64) - lo + 1
-    if float(np.prod(span.astype(np.float64))) >= KEY_LIMIT:  # no room for one key: numpy's own way
-        return np.unique(rows, axis=0, return_inverse=return_inverse, return_counts=return_counts)
-    key = np.zeros(len(rows), dtype=np.int64)
-    for c in range(rows.shape[1]):  # mixed radix, first column most significant: sorts like the rows
-        key = key * span[c] + (rows[:, c].astype(np.int64) - lo[c])
-    _, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
-    out = (rows[first],)
+        uniq, inverse, counts = rows[:0], np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    else:
+        lo = rows.min(axis=0).astype(np.int64)
+        span = rows.max(axis=0).astype(np.int64) - lo + 1
+        if float(np.prod(span.astype(np.float64))) >= KEY_LIMIT:  # no room for one key: numpy's own way
+            uniq, inverse, counts = np.unique(rows, axis=0, return_inverse=True, return_counts=True)
+        else:
+            key = np.zeros(len(rows), dtype=np.int64)
+            for c in range(rows.shape[1]):  # mixed radix, first column most significant: sorts like the rows
+                key = key * span[c] + (rows[:, c].astype(np.int64) - lo[c])
+            _, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+            uniq = rows[first]
+    out = (uniq,)
     if return_inverse:
         out += (inverse.ravel(),)
     if return_counts:

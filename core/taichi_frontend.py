@@ -185,7 +185,6 @@ def install_serial_loops(parallel_modules: tuple[str, ...] = ()) -> None:
         return build_for(ctx, node)
 
     build_serial_for.serial_loops = True
-    build_serial_for.parallel_modules = parallel_modules
     transformer.build_For = staticmethod(build_serial_for)
 
 

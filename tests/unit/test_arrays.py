@@ -23,7 +23,8 @@ def test_unique_rows_spans_too_wide_for_one_key_and_empty_input():
     got = unique_rows(rows, return_inverse=True)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1].ravel())
     empty = np.zeros((0, 2), np.int64)
-    assert unique_rows(empty).shape == (0, 2)
+    uniq, inverse, counts = unique_rows(empty, return_inverse=True, return_counts=True)
+    assert uniq.shape == (0, 2) and inverse.shape == (0,) and counts.shape == (0,)
 
 
 def test_unique_rows_refuses_what_it_does_not_handle():
