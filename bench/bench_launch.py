@@ -42,7 +42,7 @@ def _measure(mode: str, frames: int) -> dict:
     from anisofrac import api
 
     if mode == "pooled":
-        frontend.install_serial_loops = lambda *modules: None  # Taichi's own build: every loop through the pool
+        frontend.install_serial_loops = lambda: None  # Taichi's own build: every loop through the pool
     api.init("cpu", "f32", threads=1)
     data = ti.field(ti.f32, shape=4)
 

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import BackendError, ConfigError
-from core.host_threads import host_cores
 
 PRECISIONS = ("f32", "f64")
 ARCHES = ("cpu", "cuda", "auto")
@@ -20,7 +19,6 @@ ARCHES = ("cpu", "cuda", "auto")
 # is reached by the test suite and a few scenes in both precisions (90 MB here), after which runs
 # recompile evicted kernels: a 4 s start became 10-12 s.
 OFFLINE_CACHE_MAX_BYTES = 1 << 30
-PARALLEL_MODULES = ("render.",)  # packages whose kernels' loops run on every core in a one-thread run
 
 
 @dataclass(frozen=True)
@@ -138,10 +136,7 @@ def init_taichi(
         if threads > 0:
             kwargs["cpu_max_num_threads"] = threads
         if threads == 1:
-            # simulation loops serial: no thread-pool round trip per loop, one thread's results; drawing's
-            # loops on every core, whose pixels do not depend on their count (core/taichi_frontend.py)
-            kwargs["cpu_max_num_threads"] = host_cores()
-            serial_loops(PARALLEL_MODULES)
+            serial_loops()  # no thread-pool round trip per loop (core/taichi_frontend.py)
         ti.init(arch=ti.cpu, enable_fallback=False, **kwargs)
         device = _cpu_name()
     _runtime = RuntimeInfo(arch=arch, precision=precision, threads=threads, device=device)

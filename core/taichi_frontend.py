@@ -40,13 +40,6 @@ thread. Struct-for loops are left alone (Taichi cannot serialise them). Results 
 pooled build in the last bit only where a loop reduces into a local that was not zero before it
 (Taichi's thread-local reduction adds the loop's partial sum to it at the end); each build is
 bitwise reproducible.
-
-Drawing is the exception (`init_taichi` names the render package): its kernels cover pixels and
-transform triangles independently (depth keys, shadow depths and bounds meet only in atomic maxima
-and minima, which give one answer in any order), so their loops stay parallel and run on every core
-of the machine: Taichi's pool then has one thread per core, which only these loops (and Taichi's own
-copies) use. A pot frame's shading took 20 of its 33 ms of drawing on one thread; the simulation's
-loops are built serial as before, so its results are those of a one-thread run.
 """
 
 from __future__ import annotations
@@ -163,23 +156,19 @@ def _is_range_loop(transformer, ctx, node) -> bool:
         and iterator.func.id == "range"
 
 
-def install_serial_loops(parallel_modules: tuple[str, ...] = ()) -> None:
-    """Build every outermost range loop serial (module doc, single-thread runs), except in the kernels
-    and functions of modules whose name starts with one of `parallel_modules`: their loops stay Taichi's
-    parallel loops. Idempotent (the first call's modules stay). Only kernels compiled afterwards change
-    (Taichi's offline cache keys the loop's setting)."""
+def install_serial_loops() -> None:
+    """Build every outermost range loop serial (module doc, single-thread runs); idempotent. Only
+    kernels compiled afterwards change (Taichi's offline cache keys the loop's setting)."""
     from taichi.lang.ast import ast_transformer
 
     transformer = ast_transformer.ASTTransformer
     build_for = transformer.build_For
     if getattr(build_for, "serial_loops", False):
         return
-    parallel_modules = tuple(parallel_modules)
 
     def build_serial_for(ctx, node):
         outermost = not any(not scope.is_static for scope in ctx.loop_scopes)
-        parallel = ctx.func.func.__module__.startswith(parallel_modules)
-        if outermost and not parallel and _is_range_loop(transformer, ctx, node):
+        if outermost and _is_range_loop(transformer, ctx, node):
             ctx.ast_builder.parallelize(1)
             ctx.ast_builder.strictly_serialize()
         return build_for(ctx, node)

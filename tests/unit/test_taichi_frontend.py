@@ -109,9 +109,8 @@ def test_single_thread_runs_build_their_outermost_range_loops_serial():
     """Taichi refuses `break` in an outermost loop it runs through its thread pool ("Cannot break in
     the outermost loop"); with one CPU thread init_taichi builds those loops serial, so a kernel that
     stops at the first match compiles and finds it. ndrange, grouped ndrange, a loop in a ti.func and
-    a struct-for (left to the pool) give what numpy gives; the render package's kernels keep their
-    parallel loops, on a pool of a thread per core. On CUDA or with several CPU threads the hook is
-    not installed: Taichi's loops stay parallel there."""
+    a struct-for (left to the pool) give what numpy gives. On CUDA or with several CPU threads the
+    hook is not installed: Taichi's loops stay parallel there."""
     from taichi.lang.ast import ast_transformer
 
     from core.runtime import ensure_runtime
@@ -125,6 +124,7 @@ def test_single_thread_runs_build_their_outermost_range_loops_serial():
     grid = ti.field(ti.i32, shape=(4, 4))
     values.from_numpy(np.arange(16, dtype=np.int32) ** 2)
 
+    @ti.kernel
     def first_above(limit: ti.i32) -> ti.i32:
         hit = -1
         for i in range(16):
@@ -150,19 +150,6 @@ def test_single_thread_runs_build_their_outermost_range_loops_serial():
             grid[i, j] *= 2
         return total_of_values()
 
-    serial = ti.kernel(first_above)
-    assert serial(50) == 8 and serial(1000) == -1
+    assert first_above(50) == 8 and first_above(1000) == -1
     assert fill_and_sum() == int((np.arange(16) ** 2).sum())
     np.testing.assert_array_equal(grid.to_numpy(), 2 * (np.arange(16).reshape(4, 4) + 1))
-    # the render package's kernels keep Taichi's parallel loops (their pixels and triangles are
-    # independent, or meet in atomic maxima) on a pool of one thread per core: the same kernel defined
-    # there is refused, as Taichi refuses a break in a parallel loop; the simulation's count stays 1
-    from taichi.lang import impl
-
-    from core.host_threads import host_cores
-    from core.runtime import PARALLEL_MODULES
-
-    assert impl.current_cfg().cpu_max_num_threads == host_cores()
-    first_above.__module__ = PARALLEL_MODULES[0] + "probe"  # as if defined in the render package
-    with pytest.raises(Exception, match="outermost loop"):
-        ti.kernel(first_above)(50)
