@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import group_indices
 from core.host_threads import host_cores
 from geometry.boundary_groups import greedy_groups
 
@@ -85,9 +86,7 @@ def build_boundary_particles(
     idx = np.flatnonzero(surface)
     gid = np.full(len(idx), -1, dtype=np.int64)
     next_id = 0
-    by_body = np.argsort(body[idx], kind="stable")  # each body's surface particles, ascending
-    cut = np.flatnonzero(np.diff(body[idx][by_body])) + 1
-    for local in np.split(by_body, cut) if len(idx) else []:
+    for local in group_indices(body[idx]):  # each body's surface particles, ascending
         pts = centroid[idx[local]]
         rad = radius[idx[local]]
         order = np.argsort(_morton_keys(pts), kind="stable")

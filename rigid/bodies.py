@@ -28,11 +28,12 @@ import itertools
 
 import numpy as np
 
+from core.arrays import group_indices
 from core.errors import ConfigError
 from geometry.boundary import DEFAULT_GROUP_SIZE, build_boundary_particles
 from geometry.particles import ParticleSet
 from geometry.tetmesh import TetMesh, signed_volumes
-from rigid.mass import MassProperties, mass_properties
+from rigid.mass import mass_properties
 from rigid.quat import IDENTITY, quat_to_matrix
 from rigid.world import RigidWorld
 
@@ -239,15 +240,13 @@ def split_body(
     rest = float(world._hb.restitution[body_id])
     fric = float(world._hb.friction[body_id])
     bp = boundary_spheres(particles, ids, dense, group_size)
-    by_label = np.split(ids[np.argsort(dense, kind="stable")], np.cumsum(np.bincount(dense, minlength=len(uniq)))[:-1])
+    by_label = [ids[g] for g in group_indices(dense)]  # every label 0..C-1 has particles (np.unique)
     sphere_cut = np.searchsorted(bp.body, np.arange(len(uniq) + 1))  # bp's spheres come in label order
     specs = []
-    masses: list[MassProperties] = []
     for c, sel in enumerate(by_label):  # sel: the particles of label c, ascending
         mp = mass_properties(
             particles.rest_verts[sel], particles.mass[sel], source=f"fragment {c} of body {body_id}"
         )
-        masses.append(mp)
         x_c = rot @ (mp.com - com_p) + x_p
         v_c = v_p + np.cross(w_p, x_c - x_p)
         sph = slice(sphere_cut[c], sphere_cut[c + 1])

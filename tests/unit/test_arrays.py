@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core.arrays import unique_rows
+from core.arrays import group_indices, unique_rows
 
 
 @pytest.mark.parametrize("shape, lo, hi", [((500, 2), 0, 40), ((800, 3), -5, 12), ((300, 2), -1, 3), ((1, 4), 7, 8)])
@@ -32,3 +32,10 @@ def test_unique_rows_refuses_what_it_does_not_handle():
         unique_rows(np.zeros((3, 2)))
     with pytest.raises(ValueError, match=r"\(N, K\)"):
         unique_rows(np.zeros(3, np.int64))
+
+
+def test_group_indices_equals_a_mask_per_label():
+    labels = np.random.default_rng(5).integers(-2, 6, 200)
+    groups = group_indices(labels)
+    assert [g.tolist() for g in groups] == [np.flatnonzero(labels == b).tolist() for b in np.unique(labels)]
+    assert group_indices(np.zeros(0, np.int64)) == []
