@@ -55,15 +55,19 @@ from render.scene_data import RenderScene
 
 
 @ti.func
-def _cover_clipped(c0, c1, c2, t, near, w_px: ti.i32, h_px: ti.i32, buf: ti.template()):
-    """Cover one clip-space triangle, clipped against w >= near (Sutherland-Hodgman: 3 or 4 vertices)."""
+def _cover_clipped(c0, c1, c2, t, near, w_px: ti.i32, h_px: ti.i32, buf: ti.template(), buf_see: ti.template(), see):
+    """Cover one clip-space triangle, clipped against w >= near (Sutherland-Hodgman: a polygon of 3 or
+    4 vertices, covered as a fan of 1 or 2 triangles by one inlined scan)."""
     n_in = ti.cast(c0[3] >= near, ti.i32) + ti.cast(c1[3] >= near, ti.i32) + ti.cast(c2[3] >= near, ti.i32)
+    poly = ti.Matrix.zero(float, 4, 4)
+    m = 0
     if n_in == 3:
-        _raster_triangle(_to_screen(c0, w_px, h_px), _to_screen(c1, w_px, h_px), _to_screen(c2, w_px, h_px),
-                         t, w_px, h_px, buf, False)
+        for j in ti.static(range(4)):
+            poly[0, j] = c0[j]
+            poly[1, j] = c1[j]
+            poly[2, j] = c2[j]
+        m = 3
     elif n_in > 0:
-        poly = ti.Matrix.zero(float, 4, 4)
-        m = 0
         cs = [c0, c1, c2]
         for k in ti.static(range(3)):
             p = cs[k]
@@ -77,13 +81,15 @@ def _cover_clipped(c0, c1, c2, t, near, w_px: ti.i32, h_px: ti.i32, buf: ti.temp
                 s = (near - p[3]) / (q[3] - p[3])
                 poly = _put_row(poly, m, p + s * (q - p))
                 m += 1
+    if m >= 3:
         s0 = _to_screen(_row(poly, 0), w_px, h_px)
-        s1 = _to_screen(_row(poly, 1), w_px, h_px)
-        s2 = _to_screen(_row(poly, 2), w_px, h_px)
-        _raster_triangle(s0, s1, s2, t, w_px, h_px, buf, False)
-        if m == 4:
-            s3 = _to_screen(_row(poly, 3), w_px, h_px)
-            _raster_triangle(s0, s2, s3, t, w_px, h_px, buf, False)
+        for k in range(m - 2):  # the fan (0, 1, 2), then (0, 2, 3)
+            sb = _to_screen(_row(poly, 1), w_px, h_px)
+            sc = _to_screen(_row(poly, 2), w_px, h_px)
+            if k == 1:
+                sb = sc
+                sc = _to_screen(_row(poly, 3), w_px, h_px)
+            _raster_triangle(s0, sb, sc, t, w_px, h_px, buf, buf_see, see, False)
 
 
 @ti.kernel
@@ -97,10 +103,8 @@ def _k_cover_triangles(n_tri: ti.i32, vp_t: ti.math.mat4, near: float, w_px: ti.
         c0 = vp_t @ ti.Vector([corner_x[3 * t][0], corner_x[3 * t][1], corner_x[3 * t][2], 1.0])
         c1 = vp_t @ ti.Vector([corner_x[3 * t + 1][0], corner_x[3 * t + 1][1], corner_x[3 * t + 1][2], 1.0])
         c2 = vp_t @ ti.Vector([corner_x[3 * t + 2][0], corner_x[3 * t + 2][1], corner_x[3 * t + 2][2], 1.0])
-        if corner_look[3 * t][1] < 1.0:  # see-through: its own layer, blended over the opaque one
-            _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key_t)
-        else:
-            _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key)
+        # see-through: its own layer, blended over the opaque one
+        _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key, pix_key_t, corner_look[3 * t][1] < 1.0)
 
 
 @ti.kernel

@@ -31,9 +31,13 @@ def _edge(u, v, px, py):
 
 
 @ti.func
-def _raster_triangle(a, b, c, pid, w_px: ti.i32, h_px: ti.i32, buf: ti.template(), depth_only: ti.template()):
+def _raster_triangle(a, b, c, pid, w_px: ti.i32, h_px: ti.i32, buf: ti.template(), buf_see: ti.template(), see,
+                     depth_only: ti.template()):
     """Cover the pixels whose centres lie in the screen triangle (a, b, c) = (x, y, depth): keys
-    (depth z_ndc, id) into a visibility buffer, or (depth_only) the largest depth into a shadow map."""
+    (depth z_ndc, id) into a visibility buffer (`buf_see` where `see` is set: a see-through
+    triangle's layer), or (depth_only) the largest depth into a shadow map `buf`. One scan for both
+    layers, the layer picked per write: each inlined copy of this loop costs the kernel that calls it
+    frontend and JIT time at every start (docs/decisions.md, "Smaller kernels, sooner start")."""
     area = _edge(a, b, c[0], c[1])
     if area != 0.0:
         sgn = 1.0
@@ -56,7 +60,10 @@ def _raster_triangle(a, b, c, pid, w_px: ti.i32, h_px: ti.i32, buf: ti.template(
                     if ti.static(depth_only):
                         ti.atomic_max(buf[py, px], z)
                     elif z >= 0.0:
-                        ti.atomic_max(buf[py, px], _key(z, pid))
+                        if see:
+                            ti.atomic_max(buf_see[py, px], _key(z, pid))
+                        else:
+                            ti.atomic_max(buf[py, px], _key(z, pid))
 
 
 @ti.func

@@ -29,7 +29,7 @@ def _k_shadow_casters(n_tri: ti.i32, n_p: ti.i32, lbasis: ti.math.mat3, lmap: ti
             a = _to_light(corner_x[3 * t], lbasis, lmap)
             b = _to_light(corner_x[3 * t + 1], lbasis, lmap)
             c = _to_light(corner_x[3 * t + 2], lbasis, lmap)
-            _raster_triangle(a, b, c, t, size, size, shadow, True)
+            _raster_triangle(a, b, c, t, size, size, shadow, shadow, 0, True)
     for i in range(n_p):
         ctr = _to_light(particle_x[i], lbasis, lmap)
         rad = particle_r[i] * lmap[2]

@@ -135,16 +135,14 @@ def _k_transform(n_tri: ti.i32, n_body: ti.i32, corner_ref: ti.template(), corne
                  pose_x: ti.template(), pose_q: ti.template(), pose_ref_com: ti.template(),
                  corner_x: ti.template(), corner_n: ti.template()):
     for t in range(n_tri):
-        x0 = _corner_world(3 * t, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
-        x1 = _corner_world(3 * t + 1, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
-        x2 = _corner_world(3 * t + 2, n_body, corner_ref, corner_body, pose_x, pose_q, pose_ref_com)
-        n = (x1 - x0).cross(x2 - x0)  # outward for counter-clockwise faces
+        for k in range(3):  # a runtime loop: one inlined copy of the transform to compile, not three
+            corner_x[3 * t + k] = _corner_world(3 * t + k, n_body, corner_ref, corner_body, pose_x, pose_q,
+                                                pose_ref_com)
+        x0 = corner_x[3 * t]
+        n = (corner_x[3 * t + 1] - x0).cross(corner_x[3 * t + 2] - x0)  # outward for counter-clockwise faces
         ln = n.norm()
         if ln > 0:
             n = n / ln
-        corner_x[3 * t] = x0
-        corner_x[3 * t + 1] = x1
-        corner_x[3 * t + 2] = x2
         for k in ti.static(range(3)):
             corner_n[3 * t + k] = n
 
@@ -188,6 +186,8 @@ def _k_copy_poses(n: ti.i32, src_x: ti.template(), src_q: ti.template(), src_com
         pose_x[b] = src_x[b]
         pose_q[b] = src_q[b]
         pose_ref_com[b] = src_com[b]
+    for b in range(n, pose_q.shape[0]):  # unused slots hold the identity (set_poses does the same)
+        pose_q[b] = ti.Vector([1.0, 0.0, 0.0, 0.0])
 
 
 @ti.kernel
@@ -271,10 +271,6 @@ class RenderScene:
         if old is not None:
             field_pool.recycle(("render", kind, old_cap), old)
             self.generation += 1
-        if kind == "pose":
-            q = np.zeros((cap, 4), dtype=numpy_float())
-            q[:, 0] = 1.0
-            self.pose_q.from_numpy(q)
 
     def release(self) -> None:
         """Give every buffer back to the pool (the renderers must not draw this scene afterwards)."""
