@@ -18,8 +18,8 @@ from rigid.kernel_math import (
 
 
 # --------------------------------------------------------------------------- 2. derived data
-@ti.kernel
-def k_derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
+@ti.func
+def derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
     for b in range(nb):
         s.body_active[b] = 1 if is_active(s, b) else 0
         s.body_wake[b] = 0
@@ -76,8 +76,8 @@ def cell_size(s: ti.template(), margin):
     return 2.0 * s.max_reach[None] + margin
 
 
-@ti.kernel
-def k_grid(s: ti.template(), ns: ti.i32, margin: float):
+@ti.func
+def fill_grid(s: ti.template(), ns: ti.i32, margin: float):
     hmask = s.grid_size - 1
     for h in range(s.grid_size):
         s.grid_count[h] = 0

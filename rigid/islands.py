@@ -12,8 +12,8 @@ from rigid.kernel_math import (
 
 
 # --------------------------------------------------------------------------- 9-10. bookkeeping
-@ti.kernel
-def k_save_prev(s: ti.template(), nc: ti.i32, ns: ti.i32):
+@ti.func
+def save_contacts(s: ti.template(), nc: ti.i32, ns: ti.i32):
     for c in range(nc):
         s.pc_b[c] = s.ct_b[c]
         s.pc_ln[c] = s.ct_ln[c]
@@ -32,8 +32,8 @@ def uf_find(s: ti.template(), x):
     return r
 
 
-@ti.kernel
-def k_sleep(s: ti.template(), nb: ti.i32, nc: ti.i32, time_to_sleep: float):
+@ti.func
+def sleep_islands(s: ti.template(), nb: ti.i32, nc: ti.i32, time_to_sleep: float):
     for b in range(nb):
         s.body_island[b] = b
         s.body_island_time[b] = BIG

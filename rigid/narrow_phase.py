@@ -153,8 +153,8 @@ def k_count(s: ti.template(), nb: ti.i32, ns: ti.i32, ncol: ti.i32, margin: floa
             s.body_sleep_time[b] = 0.0
 
 
-@ti.kernel
-def k_gather(s: ti.template(), ns: ti.i32, ncol: ti.i32, margin: float):
+@ti.func
+def gather(s: ti.template(), ns: ti.i32, ncol: ti.i32, margin: float):
     for i in range(ns):
         base = s.bp_ct_start[i]
         cnt = 0
@@ -231,8 +231,8 @@ def contact_geometry(s: ti.template(), i, key, ba):
     return bb, n, gap, p, mu, e
 
 
-@ti.kernel
-def k_setup(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float, warm_depth: float):
+@ti.func
+def set_up(s: ti.template(), nc: ti.i32, use_warm: ti.i32, warm_factor: float, warm_depth: float):
     for c in range(nc):
         i = s.ct_a[c]
         key = s.ct_b[c]

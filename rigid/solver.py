@@ -100,8 +100,8 @@ def support_level(s: ti.template(), b):
     return lv
 
 
-@ti.kernel
-def k_levels(s: ti.template(), nb: ti.i32, nc: ti.i32, max_levels: ti.i32):
+@ti.func
+def support_levels(s: ti.template(), nb: ti.i32, nc: ti.i32, max_levels: ti.i32):
     """Support levels for contact mass scaling: breadth-first distance, over this step's contacts, from
     static support (level 0 = touches a collider, a static or a sleeping body)."""
     for b in range(nb):
@@ -231,8 +231,8 @@ def k_substep(
             integrate_body(s, b, h)
 
 
-@ti.kernel
-def k_correct(
+@ti.func
+def correct_positions(
     s: ti.template(),
     nb: ti.i32,
     nc: ti.i32,
@@ -272,8 +272,8 @@ def k_correct(
                 s.body_w[b] = q_to_mat(dq) @ s.body_w[b]
 
 
-@ti.kernel
-def k_finish(
+@ti.func
+def restitute(
     s: ti.template(),
     nb: ti.i32,
     nc: ti.i32,

@@ -3,17 +3,17 @@
 Stages, in the order `rigid_step` runs them (Box2D-style named stages; contacts are found once
 per step and solved over `substeps` substeps, the "temporal Gauss-Seidel" of Box2D v3 / PhysX TGS):
 
-1. `k_derive`       world inverse inertia R I^-1 R^T, boundary-sphere world centres, sweep distances
+1. `derive`         world inverse inertia R I^-1 R^T, boundary-sphere world centres, sweep distances
                     (how far each sphere may travel this step), pose at the step start.
-2. `k_grid`         broad phase: hashed uniform grid (count, serial scan, serial scatter: buckets list
+2. `fill_grid`      broad phase: hashed uniform grid (count, serial scan, serial scatter: buckets list
                     sphere ids in increasing order, so the result does not depend on thread timing).
 3. `k_count`        narrow phase, pass 1: contacts per sphere, serial scan; wake requests.
-4. `k_gather`       narrow phase, pass 2: each sphere writes its partner keys into its CSR segment and
+4. `gather`         narrow phase, pass 2: each sphere writes its partner keys into its CSR segment and
                     sorts them, so contacts are ordered by (sphere a, key b) whatever the grid did.
-5. `k_setup`        contact geometry (sphere-sphere, sphere-plane, sphere-box), effective masses,
+5. `set_up`         contact geometry (sphere-sphere, sphere-plane, sphere-box), effective masses,
                     pre-solve relative normal speed vn0, warm-start impulses matched by (a, b) key.
-6. `k_levels`,      support levels (distance from static support over the contact graph) and contact
-   `k_mass_scaling` mass scaling of heavy-on-light contacts (see k_mass_scaling).
+6. `support_levels`, support levels (distance from static support over the contact graph) and contact
+   `k_mass_scaling` mass scaling of heavy-on-light contacts (see solver.k_mass_scaling).
 7. `k_substep` x m  symplectic Euler over h = dt / m: v += g h; warm start; sequential impulses
                     (symmetric sweeps; Coulomb cone on the 2D tangent impulse; non-penetration with
                     a speculative allowance vn >= -gap/h, the gap updated from the bodies' motion since
@@ -21,19 +21,23 @@ per step and solved over `substeps` substeps, the "temporal Gauss-Seidel" of Box
                     splitting in the principal frame (exact sub-rotations about the principal axes in
                     the Strang order 1-2-3-2-1), which keeps the world angular momentum exactly and has
                     no energy drift, so a tumbling body keeps L and flips about its intermediate axis.
-8. `k_correct`      split-impulse position correction on pseudo velocities (never fed back into v, w).
-9. `k_finish`       restitution (Box2D v3 "relax/restitution": target vn = -e vn0 for contacts that
+8. `correct_positions` split-impulse position correction on pseudo velocities (never fed back into v, w).
+9. `restitute`      restitution (Box2D v3 "relax/restitution": target vn = -e vn0 for contacts that
                     closed faster than the threshold at the step start and carried impulse), sleep timers.
-10. `k_save_prev`   contacts -> warm-start store.
-11. `k_sleep`       islands of touching awake bodies (serial union-find); an island whose every body
+10. `save_contacts` contacts -> warm-start store.
+11. `sleep_islands` islands of touching awake bodies (serial union-find); an island whose every body
                     has been slow for `time_to_sleep` goes to sleep.
 
+Stages 1-2, 4-6 (support levels), 8-9 and 10-11 each run as one kernel (rigid/step_kernels.py: fewer
+kernels to compile at a start); 3, 6's mass scaling and 7 are kernels of their own (the host reads 3's
+count; 7 runs m times; see step_kernels.py for 6).
 Quaternions are w-x-y-z. Body b maps a reference point X to `R(q_b) (X - ref_com_b) + x_b`.
 Serial loops (`ti.loop_config(serialize=True)`) keep scans, scatters and the Gauss-Seidel sweeps in a
 fixed order: with one CPU thread every run is bitwise identical.
 
 Where they live: broad_phase.py (1-2), narrow_phase.py (3-5), solver.py (6-9, with integrate.py),
-islands.py (10-11); host transfers in transfers.py, shared helpers in kernel_math.py.
+islands.py (10-11), their kernels in step_kernels.py; host transfers in transfers.py, shared helpers
+in kernel_math.py.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from __future__ import annotations
 import math
 import time
 
-from rigid import broad_phase, islands, narrow_phase, solver
+from rigid import broad_phase, narrow_phase, solver, step_kernels
 
 
 class StageLaps:
@@ -100,8 +104,7 @@ def _step(world, dt: float) -> None:
     lap = StageLaps(world.profile)
     while True:  # 1-3; the contact store grows when the narrow phase needs more room
         s = world._s
-        broad_phase.k_derive(s, nb, ns, dt)
-        broad_phase.k_grid(s, ns, margin)
+        step_kernels.k_broad_phase(s, nb, ns, dt, margin)  # 1-2
         lap("broad_phase")
         narrow_phase.k_count(s, nb, ns, ncol, margin)
         total = int(s.ct_total[None])
@@ -110,27 +113,25 @@ def _step(world, dt: float) -> None:
         world._grow(contacts=total)
     s = world._s
     nc = total
-    narrow_phase.k_gather(s, ns, ncol, margin)  # 4-5
-    narrow_phase.k_setup(s, nc, int(cfg.warm_start), cfg.warm_start_factor, cfg.warm_start_max_depth_m)
-    h = dt / cfg.substeps
-    if cfg.mass_ratio_cap > 0.0:  # 6
-        solver.k_levels(s, nb, nc, cfg.max_support_levels)
+    scaling = cfg.mass_ratio_cap > 0.0
+    step_kernels.k_contacts(s, nb, ns, nc, ncol, margin, int(cfg.warm_start), cfg.warm_start_factor,  # 4-6
+                            cfg.warm_start_max_depth_m, cfg.max_support_levels, scaling)
+    if scaling:
         solver.k_mass_scaling(s, nc, cfg.mass_ratio_cap)
+    h = dt / cfg.substeps
     lap("narrow_phase")
     for sub in range(cfg.substeps):  # 7
         solver.k_substep(s, nb, nc, h, float(g[0]), float(g[1]), float(g[2]), cfg.linear_damping_per_s,
                          cfg.angular_damping_per_s, cfg.max_speed_mps, cfg.max_rotation_per_step_rad / cfg.substeps,
                          cfg.velocity_iterations, sub % 2)
     lap("solve_integrate")
-    solver.k_correct(s, nb, nc, dt, cfg.position_iterations, cfg.linear_slop_m, cfg.position_correction_rate,
-                     cfg.max_correction_speed_mps)  # 8
-    solver.k_finish(s, nb, nc, cfg.restitution_iterations, cfg.restitution_threshold_mps,
-                    cfg.sleep_linear_speed_mps, cfg.sleep_angular_speed_radps, dt)  # 9
+    step_kernels.k_after_substeps(s, nb, nc, dt, cfg.position_iterations, cfg.linear_slop_m,  # 8-9
+                                  cfg.position_correction_rate, cfg.max_correction_speed_mps,
+                                  cfg.restitution_iterations, cfg.restitution_threshold_mps,
+                                  cfg.sleep_linear_speed_mps, cfg.sleep_angular_speed_radps)
     lap("correct_restitute")
-    islands.k_save_prev(s, nc, ns)  # 10
+    step_kernels.k_bookkeeping(s, nb, nc, ns, cfg.time_to_sleep_s, bool(cfg.sleep_enabled))  # 10-11
     world._nc = nc
-    if cfg.sleep_enabled:  # 11
-        islands.k_sleep(s, nb, nc, cfg.time_to_sleep_s)
     lap("sleep")
     world.time += dt
     world.step_count += 1
