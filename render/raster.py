@@ -50,7 +50,7 @@ from render.raster_core import (
     _row,
     _to_screen,
 )
-from render.raster_light import _k_resolve, _k_shade, _k_shadow_casters
+from render.raster_light import _k_shade, _k_shadow_casters
 from render.scene_data import RenderScene
 
 
@@ -92,10 +92,10 @@ def _cover_clipped(c0, c1, c2, t, near, w_px: ti.i32, h_px: ti.i32, buf: ti.temp
             _raster_triangle(s0, sb, sc, t, w_px, h_px, buf, buf_see, see, False)
 
 
-@ti.kernel
-def _k_cover_triangles(n_tri: ti.i32, vp_t: ti.math.mat4, near: float, w_px: ti.i32, h_px: ti.i32, eye: ti.math.vec3,
-                       cull: ti.i32, corner_x: ti.template(), corner_n: ti.template(), corner_look: ti.template(),
-                       pix_key: ti.template(), pix_key_t: ti.template()):
+@ti.func
+def _cover_triangles(n_tri: ti.i32, vp_t: ti.math.mat4, near: float, w_px: ti.i32, h_px: ti.i32, eye: ti.math.vec3,
+                     cull: ti.i32, corner_x: ti.template(), corner_n: ti.template(), corner_look: ti.template(),
+                     pix_key: ti.template(), pix_key_t: ti.template()):
     for t in range(n_tri):
         # a face turned away from the eye is hidden by the front of its closed surface (one-sided shading)
         if cull and (corner_x[3 * t] - eye).dot(corner_n[3 * t]) > 0.0:
@@ -107,10 +107,10 @@ def _k_cover_triangles(n_tri: ti.i32, vp_t: ti.math.mat4, near: float, w_px: ti.
         _cover_clipped(c0, c1, c2, t, near, w_px, h_px, pix_key, pix_key_t, corner_look[3 * t][1] < 1.0)
 
 
-@ti.kernel
-def _k_cover_particles(n_p: ti.i32, id0: ti.i32, view_t: ti.math.mat4, ndc_sx: float, ndc_sy: float,
-                       p22: float, p32: float, focal_px: float, near: float, w_px: ti.i32, h_px: ti.i32,
-                       particle_x: ti.template(), particle_r: ti.template(), pix_key: ti.template()):
+@ti.func
+def _cover_particles(n_p: ti.i32, id0: ti.i32, view_t: ti.math.mat4, ndc_sx: float, ndc_sy: float,
+                     p22: float, p32: float, focal_px: float, near: float, w_px: ti.i32, h_px: ti.i32,
+                     particle_x: ti.template(), particle_r: ti.template(), pix_key: ti.template()):
     for i in range(n_p):
         r = particle_r[i]
         cv, w, sx, sy = _particle_screen(particle_x[i], view_t, w_px, h_px, ndc_sx, ndc_sy)
@@ -132,9 +132,9 @@ def _k_cover_particles(n_p: ti.i32, id0: ti.i32, view_t: ti.math.mat4, ndc_sx: f
                             ti.atomic_max(pix_key[py, px], _key(z, id0 + i))
 
 
-@ti.kernel
-def _k_cover_lines(n_l: ti.i32, id0: ti.i32, vp_t: ti.math.mat4, near: float, width: ti.i32, w_px: ti.i32,
-                   h_px: ti.i32, line_x: ti.template(), pix_key: ti.template()):
+@ti.func
+def _cover_lines(n_l: ti.i32, id0: ti.i32, vp_t: ti.math.mat4, near: float, width: ti.i32, w_px: ti.i32,
+                 h_px: ti.i32, line_x: ti.template(), pix_key: ti.template()):
     for j in range(n_l):
         ca = vp_t @ ti.Vector([line_x[2 * j][0], line_x[2 * j][1], line_x[2 * j][2], 1.0])
         cb = vp_t @ ti.Vector([line_x[2 * j + 1][0], line_x[2 * j + 1][1], line_x[2 * j + 1][2], 1.0])
@@ -164,6 +164,21 @@ def _k_cover_lines(n_l: ti.i32, id0: ti.i32, vp_t: ti.math.mat4, near: float, wi
                         qy = py + o - (width - 1) // 2
                     if 0 <= qx and qx < w_px and 0 <= qy and qy < h_px and p[2] >= 0.0 and p[2] <= 1.0:
                         ti.atomic_max(pix_key[qy, qx], _key(p[2], id0 + j))
+
+
+@ti.kernel
+def _k_cover(n_tri: ti.i32, n_p: ti.i32, n_l: ti.i32, vp_t: ti.math.mat4, view_t: ti.math.mat4, near: float,
+             w_px: ti.i32, h_px: ti.i32, eye: ti.math.vec3, cull: ti.i32, ndc_sx: float, ndc_sy: float, p22: float,
+             p32: float, focal_px: float, line_width: ti.i32, corner_x: ti.template(), corner_n: ti.template(),
+             corner_look: ti.template(), particle_x: ti.template(), particle_r: ti.template(),
+             line_x: ti.template(), pix_key: ti.template(), pix_key_t: ti.template()):
+    """Coverage (module doc, step 1) in one kernel, one loop per primitive kind: ids are triangles,
+    then particles, then line segments. One kernel, not three, to compile at a start (a kernel's
+    first launch in a process is about 30 ms of JIT whatever it does)."""
+    _cover_triangles(n_tri, vp_t, near, w_px, h_px, eye, cull, corner_x, corner_n, corner_look, pix_key, pix_key_t)
+    _cover_particles(n_p, n_tri, view_t, ndc_sx, ndc_sy, p22, p32, focal_px, near, w_px, h_px, particle_x,
+                     particle_r, pix_key)
+    _cover_lines(n_l, n_tri + n_p, vp_t, near, line_width, w_px, h_px, line_x, pix_key)
 
 
 def check_size(width: int, height: int) -> tuple[int, int]:
@@ -233,7 +248,6 @@ class RasterRenderer:
         scale = SHADOW_TEXELS / extent  # texels per metre
         lmap = ti.math.vec3(centre[0] - 0.5 * extent, centre[1] - 0.5 * extent, scale)
         lbasis = ti.math.mat3(basis)
-        self.shadow.fill(-1e30)
         _k_shadow_casters(scene.n_tris, scene.n_particles, lbasis, lmap, SHADOW_TEXELS, scene.corner_x,
                           scene.corner_n, scene.corner_body, scene.corner_look, scene.particle_x, scene.particle_r,
                           self.shadow)
@@ -255,25 +269,18 @@ class RasterRenderer:
         focal_px = ndc_sy * 0.5 * h
         near = float(camera.near)
         lt = scene.lighting
-        if scene.n_tris:
-            _k_cover_triangles(scene.n_tris, vp_t, near, w, h, ti.math.vec3(*camera.eye), int(not lt.two_sided),
-                               scene.corner_x, scene.corner_n, scene.corner_look, self.pix_key, self.pix_key_t)
-        # launched with none as well: compiled in the first frame, not in the frame where the first
-        # debris particle or line appears (a 0.2 s stall in pot's first shattering frame)
-        _k_cover_particles(scene.n_particles, scene.n_tris, view_t, ndc_sx, ndc_sy, p22, p32, focal_px, near,
-                           w, h, scene.particle_x, scene.particle_r, self.pix_key)
         width_px = max(int(round(scene.line_width)), 1)
-        _k_cover_lines(scene.n_lines, scene.n_tris + scene.n_particles, vp_t, near, width_px, w, h,
-                       scene.line_x, self.pix_key)
+        _k_cover(scene.n_tris, scene.n_particles, scene.n_lines, vp_t, view_t, near, w, h, ti.math.vec3(*camera.eye),
+                 int(not lt.two_sided), ndc_sx, ndc_sy, p22, p32, focal_px, width_px, scene.corner_x, scene.corner_n,
+                 scene.corner_look, scene.particle_x, scene.particle_r, scene.line_x, self.pix_key, self.pix_key_t)
         lbasis, lmap = self._shadow_map(scene)
         vec3 = ti.math.vec3
         lights = ti.types.matrix(6, 3, float)(np.stack([
             lt.light_dir, lt.light_color, lt.ambient, lt.fill_dir, lt.fill_color, [float(lt.specular), 0.0, 0.0]]))
+        img = np.empty((h, w, 3), dtype=np.uint8)  # written in place by the kernel (row 0 = top)
         _k_shade(w, h, scene.n_tris, scene.n_particles, vec3(*camera.eye), vec3(*right), vec3(*up), vec3(*back),
                  ndc_sx, ndc_sy, view_t, focal_px, lights, vec3(*lt.background), int(lt.two_sided), lbasis, lmap,
                  SHADOW_TEXELS, self.shadow, scene.corner_x, scene.corner_n, scene.corner_color, scene.corner_look,
                  scene.particle_x, scene.particle_r, scene.particle_color, scene.line_color, self.pix_key,
-                 self.pix_key_t, self.pix_rgb, self.pix_id)
-        img = np.empty((h, w, 3), dtype=np.uint8)  # written in place by the kernel (row 0 = top)
-        _k_resolve(w, h, int(lt.antialias), self.pix_id, self.pix_rgb, img)
+                 self.pix_key_t, self.pix_rgb, self.pix_id, int(lt.antialias), img)
         return img

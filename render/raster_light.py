@@ -20,7 +20,10 @@ def _k_shadow_casters(n_tri: ti.i32, n_p: ti.i32, lbasis: ti.math.mat3, lmap: ti
                       corner_x: ti.template(), corner_n: ti.template(), corner_body: ti.template(),
                       corner_look: ti.template(), particle_x: ti.template(), particle_r: ti.template(),
                       shadow: ti.template()):
-    """The key light's depth map: for every texel the largest height (x . light_dir) of a caster."""
+    """The key light's depth map: for every texel the largest height (x . light_dir) of a caster
+    (cleared first in the same kernel: one kernel less to compile at a start)."""
+    for ty, tx in ti.ndrange(size, size):
+        shadow[ty, tx] = -1e30
     ldir = ti.Vector([lbasis[2, 0], lbasis[2, 1], lbasis[2, 2]])
     for t in range(n_tri):
         # a closed caster's faces turned away from the light lie below its lit faces: skip them
@@ -133,6 +136,30 @@ def _triangle_hit(pid, d, eye, corner_x):
     return u, v, x0 + u * e1 + v * e2
 
 
+@ti.func
+def _resolve(w_px: ti.i32, h_px: ti.i32, antialias: ti.i32, pix_id: ti.template(), pix_rgb: ti.template(),
+             out: ti.types.ndarray(ndim=3)):
+    """Colours -> uint8 (row 0 on top). With antialias, a pixel on an edge between primitives (an id
+    differing from a 4-neighbour's) is blended with its neighbours: a one-pixel edge filter."""
+    for py, px in pix_rgb:
+        col = pix_rgb[py, px]
+        if antialias:
+            me = pix_id[py, px]
+            acc = ti.Vector([0.0, 0.0, 0.0])
+            edge = 0
+            for k in ti.static(range(4)):
+                qx = ti.min(ti.max(px + (k == 0) - (k == 1), 0), w_px - 1)
+                qy = ti.min(ti.max(py + (k == 2) - (k == 3), 0), h_px - 1)
+                acc += pix_rgb[qy, qx]
+                if pix_id[qy, qx] != me:
+                    edge = 1
+            if edge:
+                col = 0.5 * col + 0.125 * acc
+        col = ti.min(ti.max(col, 0.0), 1.0) * 255.0 + 0.5
+        for k in ti.static(range(3)):
+            out[py, px, k] = ti.cast(col[k], ti.u8)
+
+
 @ti.kernel
 def _k_shade(w_px: ti.i32, h_px: ti.i32, n_tri: ti.i32, n_p: ti.i32, eye: ti.math.vec3, right: ti.math.vec3,
              up: ti.math.vec3, back: ti.math.vec3, ndc_sx: float, ndc_sy: float, view_t: ti.math.mat4,
@@ -141,7 +168,10 @@ def _k_shade(w_px: ti.i32, h_px: ti.i32, n_tri: ti.i32, n_p: ti.i32, eye: ti.mat
              corner_x: ti.template(), corner_n: ti.template(), corner_color: ti.template(),
              corner_look: ti.template(), particle_x: ti.template(), particle_r: ti.template(),
              particle_color: ti.template(), line_color: ti.template(), pix_key: ti.template(),
-             pix_key_t: ti.template(), pix_rgb: ti.template(), pix_id: ti.template()):
+             pix_key_t: ti.template(), pix_rgb: ti.template(), pix_id: ti.template(), antialias: ti.i32,
+             out: ti.types.ndarray(ndim=3)):
+    """Steps 3-4 of render/raster.py: shading, then (`_resolve`) the edge filter into `out`; one
+    kernel, not two, to compile at a start."""
     for py, px in pix_key:
         key = pix_key[py, px]
         ndc_x = 2.0 * (px + 0.5) / w_px - 1.0
@@ -197,27 +227,4 @@ def _k_shade(w_px: ti.i32, h_px: ti.i32, n_tri: ti.i32, n_p: ti.i32, eye: ti.mat
         pix_id[py, px] = ti.cast((key & ti.i64(ID_MASK)) * 7919 + (key_t & ti.i64(ID_MASK)), ti.i32)  # edge filter
         pix_key[py, px] = 0  # cleared for the next frame: no separate fill pass
         pix_key_t[py, px] = 0
-
-
-@ti.kernel
-def _k_resolve(w_px: ti.i32, h_px: ti.i32, antialias: ti.i32, pix_id: ti.template(), pix_rgb: ti.template(),
-               out: ti.types.ndarray(ndim=3)):
-    """Colours -> uint8 (row 0 on top). With antialias, a pixel on an edge between primitives (an id
-    differing from a 4-neighbour's) is blended with its neighbours: a one-pixel edge filter."""
-    for py, px in pix_rgb:
-        col = pix_rgb[py, px]
-        if antialias:
-            me = pix_id[py, px]
-            acc = ti.Vector([0.0, 0.0, 0.0])
-            edge = 0
-            for k in ti.static(range(4)):
-                qx = ti.min(ti.max(px + (k == 0) - (k == 1), 0), w_px - 1)
-                qy = ti.min(ti.max(py + (k == 2) - (k == 3), 0), h_px - 1)
-                acc += pix_rgb[qy, qx]
-                if pix_id[qy, qx] != me:
-                    edge = 1
-            if edge:
-                col = 0.5 * col + 0.125 * acc
-        col = ti.min(ti.max(col, 0.0), 1.0) * 255.0 + 0.5
-        for k in ti.static(range(3)):
-            out[py, px, k] = ti.cast(col[k], ti.u8)
+    _resolve(w_px, h_px, antialias, pix_id, pix_rgb, out)
