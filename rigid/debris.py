@@ -106,11 +106,15 @@ class _DebrisArrays:
             self.debris_x[i] += self.debris_v[i] * dt
             r = self.debris_r[i]
             for c in range(ncol):
+                # the contact's normal and depth, then one response (one inlined copy to compile)
+                hit = 0
+                normal = ti.math.vec3(0.0)
+                depth = 0.0
                 if self.col_kind[c] == PLANE:
                     nrm = self.col_n[c]
                     d = (self.debris_x[i] - self.col_x[c]).dot(nrm) - r
                     if d < 0.0:
-                        self._respond(i, c, nrm, -d)
+                        hit, normal, depth = 1, nrm, -d
                 else:
                     R = self.col_rot[c]
                     h = self.col_half[c]
@@ -120,7 +124,7 @@ class _DebrisArrays:
                     dist = gap.norm()
                     if dist > 0.0:
                         if dist < r:
-                            self._respond(i, c, R @ (gap / dist), r - dist)
+                            hit, normal, depth = 1, R @ (gap / dist), r - dist
                     else:  # centre inside the box: out through the nearest face
                         slack = h - ti.abs(p)
                         k = 0
@@ -130,7 +134,9 @@ class _DebrisArrays:
                             k = 2
                         nl = ti.math.vec3(0.0)
                         nl[k] = 1.0 if p[k] >= 0.0 else -1.0
-                        self._respond(i, c, R @ nl, slack[k] + r)
+                        hit, normal, depth = 1, R @ nl, slack[k] + r
+                if hit:
+                    self._respond(i, c, normal, depth)
 
     @ti.kernel
     def _k_max_speed(self, n: ti.i32) -> float:
