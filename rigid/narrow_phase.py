@@ -100,8 +100,8 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                 if gap_box.norm_sqr() > reach * reach:
                     continue
                 h = cell_hash(cn, hmask)
-                # a bucket lists its spheres in increasing id (k_grid's serial scatter) and i's body holds
-                # the ids i+1..end-1 after it (k_grid): walk the bucket from the top and stop at the
+                # a bucket lists its spheres in increasing id (fill_grid's serial scatter) and i's body holds
+                # the ids i+1..end-1 after it (fill_grid): walk the bucket from the top and stop at the
                 # first j < end, past every partner j > i of another body and none of i's own
                 first, last = s.grid_start[h], s.grid_start[h + 1]
                 for t in range(last - first):
