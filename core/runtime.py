@@ -120,7 +120,7 @@ def init_taichi(
     from core.taichi_frontend import install as fast_frontend
     from core.taichi_frontend import install_serial_loops as serial_loops
 
-    fast_frontend()  # memoised source excerpts in Taichi's AST transformer (same messages)
+    fast_frontend()  # Taichi's AST transformer: memoised excerpts, matrix operations built directly (same IR)
     kwargs: dict = dict(
         default_fp=ti.f64 if precision == "f64" else ti.f32,
         default_ip=ti.i32,

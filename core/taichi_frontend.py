@@ -23,6 +23,16 @@ frontend before them):
   memoised per function object: `inspect` re-tokenises the whole module and stats the file on every
   call. A function object's source does not change while it lives (an edited file gives new function
   objects when it is re-imported).
+- The excerpt of the node being built is pushed on the runtime's source-info stack for every node the
+  transformer visits (58k for the pot's first frame), but read (`get_current_src_info`, into a
+  `DebugInfo`) for about one in seventeen. `Builder.__call__` now pushes a `PendingExcerpt` (the
+  context and the node) and `get_current_src_info` formats it when read: the same text, from the
+  same memo, only where it is used; an error still formats its excerpt at once (the same code as
+  Taichi's). `_get_tree_and_ctx` re-wraps every source line of a ti.func (`textwrap.fill`, width
+  9999) each time a kernel inlines it: `kernel_impl.textwrap` is given a `fill` and `dedent`
+  memoised by their arguments (the same strings).
+- Taichi's small-matrix operations (`@`, `cross`, `dot`, `norm`, ...) are built straight into the IR
+  instead of inlined as `ti.func`s (core/taichi_matrix.py; 40% of the nodes before).
 - `_inside_class` (is `@ti.kernel` decorating a method?) reads the decorator's source line with
   `inspect.getframeinfo`, which resolves the module and its whole source for every kernel defined
   (0.4 s for the pot's modules); the same line comes from `linecache` directly. Only kernels
@@ -49,6 +59,9 @@ import functools
 import linecache
 import sys
 import textwrap
+import traceback
+
+from core import taichi_matrix
 
 WRAP_MEMO_SIZE = 1 << 16  # distinct (width, line) pairs kept: a few MB at most
 
@@ -127,9 +140,77 @@ def _inside_class_fast(patterns):
     return inside_class
 
 
+class PendingExcerpt:
+    """The source excerpt of an AST node, formatted when first read (module doc)."""
+
+    __slots__ = ("ctx", "node", "text")
+
+    def __init__(self, ctx, node) -> None:
+        self.ctx, self.node, self.text = ctx, node, None
+
+    def __str__(self) -> str:
+        if self.text is None:
+            self.text = self.ctx.get_pos_info(self.node)
+        return self.text
+
+
+def _lazy_dispatch(builder_call):
+    """Taichi 1.7.4's `Builder.__call__` (ast_transformer_utils.py), with the node's excerpt pushed as a
+    PendingExcerpt instead of formatted; the error path is Taichi's, line for line."""
+    from taichi.lang import impl
+    from taichi.lang.ast.ast_transformer_utils import TaichiSyntaxError
+    from taichi.lang.exception import TaichiCompilationError, handle_exception_from_cpp
+
+    def call(self, ctx, node):
+        method = getattr(self, "build_" + node.__class__.__name__, None)
+        try:
+            if method is None:
+                error_msg = f'Unsupported node "{node.__class__.__name__}"'
+                raise TaichiSyntaxError(error_msg)
+            info = PendingExcerpt(ctx, node) if isinstance(node, (ast.stmt, ast.expr)) else ""
+            with impl.get_runtime().src_info_guard(info):
+                return method(ctx, node)
+        except Exception as e:
+            if impl.get_runtime().print_full_traceback:
+                raise e
+            if ctx.raised or not isinstance(node, (ast.stmt, ast.expr)):
+                raise e.with_traceback(None)  # noqa: B904 (Taichi's code: the context stays)
+            ctx.raised = True
+            e = handle_exception_from_cpp(e)
+            if not isinstance(e, TaichiCompilationError):
+                msg = ctx.get_pos_info(node) + traceback.format_exc()
+                raise TaichiCompilationError(msg) from None
+            msg = ctx.get_pos_info(node) + str(e)
+            raise type(e)(msg) from None
+
+    call.lazy = True
+    call.original = builder_call
+    return call
+
+
+def _read_excerpt(get_current_src_info):
+    def current(runtime):
+        return str(get_current_src_info(runtime))
+
+    current.lazy = True
+    current.original = get_current_src_info
+    return current
+
+
+class _MemoTextwrap:
+    """What `kernel_impl` uses of the textwrap module, `fill` and `dedent` memoised by their arguments."""
+
+    fill = staticmethod(functools.lru_cache(maxsize=WRAP_MEMO_SIZE)(textwrap.fill))
+    dedent = staticmethod(functools.lru_cache(maxsize=1024)(textwrap.dedent))
+
+    def __getattr__(self, name):
+        return getattr(textwrap, name)
+
+
 def install() -> None:
-    """Swap in the memoised TextWrapper, get_pos_info and source lookups (idempotent)."""
-    from taichi.lang import kernel_impl
+    """Swap in the memoised TextWrapper, get_pos_info and source lookups, and the excerpts formatted
+    when read (idempotent)."""
+    from taichi.lang import impl, kernel_impl
     from taichi.lang.ast import ast_transformer_utils
 
     if getattr(ast_transformer_utils, "TextWrapper", None) is not MemoTextWrapper:
@@ -139,6 +220,12 @@ def install() -> None:
         context.get_pos_info = _memo_pos_info(context.get_pos_info)
     if not getattr(kernel_impl._inside_class, "memoised", False):
         kernel_impl._inside_class = _inside_class_fast(kernel_impl._KERNEL_CLASS_STACKFRAME_STMT_RES)
+    if not getattr(ast_transformer_utils.Builder.__call__, "lazy", False):
+        ast_transformer_utils.Builder.__call__ = _lazy_dispatch(ast_transformer_utils.Builder.__call__)
+        impl.PyTaichi.get_current_src_info = _read_excerpt(impl.PyTaichi.get_current_src_info)
+    if not isinstance(kernel_impl.textwrap, _MemoTextwrap):
+        kernel_impl.textwrap = _MemoTextwrap()
+    taichi_matrix.install()
     for name in ("getsourcefile", "getsourcelines"):
         if not getattr(getattr(kernel_impl, name), "memoised", False):
             setattr(kernel_impl, name, _memo_per_function(getattr(kernel_impl, name)))
@@ -177,4 +264,4 @@ def install_serial_loops() -> None:
     transformer.build_For = staticmethod(build_serial_for)
 
 
-__all__ = ["MemoTextWrapper", "install", "install_serial_loops"]
+__all__ = ["MemoTextWrapper", "PendingExcerpt", "install", "install_serial_loops"]

@@ -5,6 +5,7 @@ them; the offline kernel cache is large enough not to evict."""
 
 import inspect
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -60,6 +61,36 @@ def test_a_compile_error_reads_the_same(monkeypatch):
     plain = _compile_error(monkeypatch, textwrap.TextWrapper, installed.original)
     assert "undefined_name_for_the_test" in memo and "^" in memo
     assert memo.splitlines()[1:] == plain.splitlines()[1:] == again.splitlines()[1:]  # line 0: file and line
+
+
+def _lossy_assign_warning(capfd) -> str:
+    """The warning Taichi's compiler prints for an f64 value stored in an f32 field, with the source
+    excerpt the IR holds for that statement (a DebugInfo made from `get_current_src_info`)."""
+    target = ti.field(ti.f32, shape=1)
+    scale = float(time.time_ns() % 1000003) + 0.5  # a kernel no cache holds: the compiler runs and warns
+
+    @ti.kernel
+    def lossy(x: ti.f64):
+        target[0] = x * scale
+
+    capfd.readouterr()
+    lossy(1.0)
+    captured = capfd.readouterr()
+    text = captured.out + captured.err
+    return text[text.index(", File "):]  # after "While compiling `lossy_c<n>`"
+
+
+def test_excerpts_formatted_when_read_are_the_eager_ones(monkeypatch, capfd):
+    from taichi.lang import impl
+
+    lazy_call = ast_transformer_utils.Builder.__call__
+    assert lazy_call.lazy and impl.PyTaichi.get_current_src_info.lazy
+    lazy = _lossy_assign_warning(capfd)
+    monkeypatch.setattr(ast_transformer_utils.Builder, "__call__", lazy_call.original)
+    monkeypatch.setattr(impl.PyTaichi, "get_current_src_info", impl.PyTaichi.get_current_src_info.original)
+    eager = _lossy_assign_warning(capfd)
+    assert "target[0] = x * scale" in lazy and "^" in lazy and "lose precision" in lazy
+    assert lazy == eager
 
 
 def test_memoised_source_lookups_equal_inspect_and_are_copies():
