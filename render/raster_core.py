@@ -68,10 +68,8 @@ def _raster_triangle(a, b, c, pid, w_px: ti.i32, h_px: ti.i32, buf: ti.template(
 
 @ti.func
 def _put_row(poly, m, v):
-    for s in ti.static(range(4)):
-        if s == m:
-            for j in ti.static(range(4)):
-                poly[s, j] = v[j]
+    for j in ti.static(range(4)):
+        poly[m, j] = v[j]
     return poly
 
 
