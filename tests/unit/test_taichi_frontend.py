@@ -3,6 +3,7 @@ source lookups give Taichi's frontend exactly what the standard ones give, so a 
 error reads the same and a method kernel is still told from a plain one, and init_taichi installs
 them; the offline kernel cache is large enough not to evict."""
 
+import functools
 import inspect
 import textwrap
 import time
@@ -34,6 +35,10 @@ def test_memoised_wrap_equals_the_standard_one(text):
     # any option besides the width takes the standard path
     assert MemoTextWrapper(width=30, drop_whitespace=False).wrap(text) == textwrap.TextWrapper(
         width=30, drop_whitespace=False).wrap(text)
+    # the source lines of a kernel or ti.func (kernel_impl._get_tree_and_ctx)
+    assert isinstance(kernel_impl.textwrap.fill, functools._lru_cache_wrapper)
+    assert kernel_impl.textwrap.fill(text, tabsize=4, width=9999) == textwrap.fill(text, tabsize=4, width=9999)
+    assert kernel_impl.textwrap.dedent(text) == textwrap.dedent(text)
 
 
 def test_installed_by_init_taichi():
