@@ -33,6 +33,9 @@ frontend before them):
   memoised by their arguments (the same strings).
 - Taichi's small-matrix operations (`@`, `cross`, `dot`, `norm`, ...) are built straight into the IR
   instead of inlined as `ti.func`s (core/taichi_matrix.py; 40% of the nodes before).
+- Every field Taichi creates keeps the text of the stack that created it (`impl.get_traceback`, for
+  an error about an unplaced field); `_stack_text` formats the same text without `extract_stack`'s
+  stat of every file on the stack.
 - `_inside_class` (is `@ti.kernel` decorating a method?) reads the decorator's source line with
   `inspect.getframeinfo`, which resolves the module and its whole source for every kernel defined
   (0.4 s for the pot's modules); the same line comes from `linecache` directly. Only kernels
@@ -197,6 +200,22 @@ def _read_excerpt(get_current_src_info):
     return current
 
 
+def _stack_text(stacklevel: int = 1) -> str:
+    """`taichi.lang.util.get_traceback`: the text of the stack above the caller's `stacklevel` frames,
+    as `traceback.format_list(traceback.extract_stack()[: -1 - stacklevel])` gives it, without
+    `extract_stack`'s `linecache.checkcache` (a stat of every file on the stack) per call. Taichi keeps
+    it with every field it creates (480 at the pot's start, 63 ms), for an error it rarely raises."""
+    frame = sys._getframe(1)
+    for _ in range(stacklevel):
+        frame = frame.f_back if frame is not None else None
+    frames = []
+    while frame is not None:
+        code = frame.f_code
+        frames.append(traceback.FrameSummary(code.co_filename, frame.f_lineno, code.co_name, lookup_line=False))
+        frame = frame.f_back
+    return "".join(traceback.format_list(frames[::-1]))
+
+
 class _MemoTextwrap:
     """What `kernel_impl` uses of the textwrap module, `fill` and `dedent` memoised by their arguments."""
 
@@ -226,6 +245,8 @@ def install() -> None:
     if not isinstance(kernel_impl.textwrap, _MemoTextwrap):
         kernel_impl.textwrap = _MemoTextwrap()
     taichi_matrix.install()
+    if impl.get_traceback is not _stack_text:
+        impl.get_traceback = _stack_text
     for name in ("getsourcefile", "getsourcelines"):
         if not getattr(getattr(kernel_impl, name), "memoised", False):
             setattr(kernel_impl, name, _memo_per_function(getattr(kernel_impl, name)))

@@ -98,6 +98,21 @@ def test_excerpts_formatted_when_read_are_the_eager_ones(monkeypatch, capfd):
     assert lazy == eager
 
 
+def test_a_fields_stack_text_is_taichis():
+    """Taichi keeps the creating stack's text with every field (`impl.get_traceback`); the installed
+    one gives Taichi's text (`util.get_traceback`) at every level, here under pytest's deep stack."""
+    from taichi.lang import impl, util
+
+    def nested(level):
+        return impl.get_traceback(level), util.get_traceback(level)
+
+    assert impl.get_traceback is not util.get_traceback
+    for level in (1, 2, 4, 10_000):
+        ours, taichis = nested(level)
+        assert ours == taichis
+    assert "test_taichi_frontend.py" in nested(1)[0] and "nested(1)" in nested(1)[0]
+
+
 def test_memoised_source_lookups_equal_inspect_and_are_copies():
     lines, start = kernel_impl.getsourcelines(_compile_error)
     assert kernel_impl.getsourcelines.memoised and kernel_impl.getsourcefile.memoised

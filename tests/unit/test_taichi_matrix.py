@@ -34,7 +34,7 @@ def _results(dtype):
     fill(A, (3, 3)), fill(B, (3, 3)), fill(u, (3,)), fill(v, (3,)), fill(w2, (2,))
 
     @ti.func
-    def put(i, k: ti.template(), r):  # r's entries at out[i, k:]; returns the next column
+    def put(i, k: ti.template(), r):  # r's entries at out[i, k:]
         shape = ti.static(_shape(r))
         if ti.static(len(shape) == 0):
             out[i, k] = r
