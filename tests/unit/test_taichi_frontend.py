@@ -1,7 +1,8 @@
 """Start-up (core/taichi_frontend.py, core/runtime.py): the memoised TextWrapper, source excerpts and
-source lookups give Taichi's frontend exactly what the standard ones give, so a kernel's compile
-error reads the same and a method kernel is still told from a plain one, and init_taichi installs
-them; the offline kernel cache is large enough not to evict."""
+source lookups, the excerpts formatted when read and a field's stack text give Taichi's frontend
+exactly what the standard ones give, so a kernel's compile error and warning read the same and a
+method kernel is still told from a plain one, and init_taichi installs them; the offline kernel
+cache is large enough not to evict."""
 
 import functools
 import inspect
