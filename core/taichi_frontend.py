@@ -13,8 +13,8 @@ only with `width=80` and returns exactly what the standard one returns (a wrappe
 other option falls back to the standard code), so the error messages are unchanged
 (tests/unit/test_taichi_frontend.py compares them). Called once by `core.runtime.init_taichi`.
 
-Two more memos, same principle (measured on `main.py run pot --frames 20`, 78 kernels, 3.6 s of
-frontend before them):
+More work left out on the same principle, the same results (the first two measured on `main.py run
+pot --frames 20`, 78 kernels, 3.6 s of frontend before them; the others in docs/decisions.md, session 24):
 - `get_pos_info` itself (the excerpt text of one AST node) is memoised by everything it reads: the
   file, the line offset and indent of the function's source, the function's name, the node's kind and
   span, and the source lines the span covers. A ti.func is transformed again for every kernel that
@@ -227,8 +227,8 @@ class _MemoTextwrap:
 
 
 def install() -> None:
-    """Swap in the memoised TextWrapper, get_pos_info and source lookups, and the excerpts formatted
-    when read (idempotent)."""
+    """Swap in the memoised TextWrapper, get_pos_info and source lookups, the excerpts formatted when
+    read, the direct matrix operations and the cheaper stack text (module doc; idempotent)."""
     from taichi.lang import impl, kernel_impl
     from taichi.lang.ast import ast_transformer_utils
 
