@@ -18,17 +18,23 @@ from sph.contact import surface_radius
 # under about 30 degrees. Below it an edge or a corner bears the blow (a disc landing on its rim's
 # edge: 0.72-0.75; a curved pot wall: 0.998; a pane: 1.0) and the contact's normal is the load's.
 SMOOTH_SURFACE_RATIO = math.cos(math.radians(30.0))
+NEAR_PAD = 1e-9  # relative: distances of particles and of their faces round differently
 
 
-def _facing_faces(ps, body: int, point: np.ndarray, normal: np.ndarray):
-    """The body's free tet faces (no link) whose outward normal is against `normal` (the side a
+def _surface_particles(ps, body: int) -> np.ndarray:
+    """Rows of the body's particles with a free tet face (no link across it)."""
+    return np.flatnonzero(ps.alive & (ps.body == body) & (ps.links < 0).any(1))
+
+
+def _facing_faces(ps, rows: np.ndarray, point: np.ndarray, normal: np.ndarray):
+    """The free tet faces of particles `rows` whose outward normal is against `normal` (the side a
     striker meets; a thin wall's far face is as near): (triangles (F,3,3) m relative to `point`,
-    area-weighted outward normals (F,3), centroids (F,3)), or None where there is none."""
-    mine = np.flatnonzero(ps.alive & (ps.body == body) & (ps.links < 0).any(1))
-    if mine.size == 0:
+    area-weighted outward normals (F,3), centroids (F,3)), or None where there is none. Each face's
+    numbers depend on its own particle only, so a subset of rows gives those faces' rows exactly."""
+    if rows.size == 0:
         return None
-    tet, face = np.nonzero(ps.links[mine] < 0)
-    v = ps.rest_verts[mine[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
+    tet, face = np.nonzero(ps.links[rows] < 0)
+    v = ps.rest_verts[rows[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
     tri = np.take_along_axis(v, TET_FACES[face][:, :, None], axis=1)  # (F,3,3)
     cen = tri.mean(1)
     an = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted face normals
@@ -39,6 +45,43 @@ def _facing_faces(ps, body: int, point: np.ndarray, normal: np.ndarray):
     if not facing.any():
         return None
     return tri[facing], an[facing], cen[facing]
+
+
+class _SurfaceNear:
+    """The body's surface particles by distance from a point, so that only those near it are cut into
+    faces (a Pots fragment has thousands of surface particles; a contact patch is a few tet edges).
+    A face centroid lies within `spread` of its particle's centroid (the farthest tet vertex), so a
+    face of a particle farther than R + spread is farther than R (exact selections, see callers)."""
+
+    def __init__(self, ps, body: int, point: np.ndarray) -> None:
+        self.rows = _surface_particles(ps, body)
+        c = ps.centroid[self.rows]
+        self.dist = np.linalg.norm(c - point, axis=1)
+        off = ps.rest_verts[self.rows] - c[:, None, :]
+        self.spread = float(np.sqrt(np.einsum("nkj,nkj->nk", off, off).max())) if self.rows.size else 0.0
+
+    def within(self, reach: float) -> np.ndarray:
+        """Rows whose faces may lie within `reach` (m) of the point (padded against rounding)."""
+        return self.rows[self.dist <= (reach + self.spread) * (1.0 + NEAR_PAD)]
+
+
+def _nearest_patch(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float):
+    """`_facing_faces` of the body's particles near `point`, holding the facing face nearest to the
+    point and every face within `radius` of that one: the same faces, bit for bit, as over the whole
+    body for `surface_frame`. Grows the selection until the nearest face found is certain."""
+    near = _SurfaceNear(ps, body, point)
+    if near.rows.size == 0:
+        return None
+    reach = float(near.dist.min()) + 2.0 * radius
+    while True:
+        rows = near.within(reach)
+        faces = _facing_faces(ps, rows, point, normal)
+        if rows.size == near.rows.size:
+            return faces
+        # a face not selected lies beyond `reach`: none nearer than the nearest found, none near it
+        if faces is not None and float(np.linalg.norm(faces[2], axis=1).min()) + radius < reach * (1.0 - NEAR_PAD):
+            return faces
+        reach = 2.0 * reach + near.spread
 
 
 def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: float,
@@ -58,7 +101,11 @@ def surface_frame(ps, body: int, point: np.ndarray, normal: np.ndarray, radius: 
     sets the load's direction (a floor's is exact), and the faces' mean would turn with which faces lie
     within one tet edge (14-46 degrees off the floor's for a disc landing on its rim at 76-82 degrees).
     """
-    faces = _facing_faces(ps, body, point, normal)
+    return _frame_of(_nearest_patch(ps, body, point, normal, radius), point, normal, radius, striker)
+
+
+def _frame_of(faces, point: np.ndarray, normal: np.ndarray, radius: float, striker: np.ndarray | None):
+    """`surface_frame` from the facing faces (`_facing_faces`) that hold the nearest one's patch."""
     if faces is None:
         return point, normal
     _, an, cen = faces
@@ -84,7 +131,12 @@ def surface_radius_at(ps, body: int, point: np.ndarray, normal: np.ndarray, radi
     """Radius of curvature (m) of the struck surface at `point` (on it; `normal` inward), for Hertz's
     R1: `sph.contact.surface_radius` fitted to the corners of the facing free faces within `radius`
     of the point; inf for a flat patch."""
-    faces = _facing_faces(ps, body, point, normal)
+    return _radius_of(_facing_faces(ps, _SurfaceNear(ps, body, point).within(radius), point, normal), point, normal,
+                      radius)
+
+
+def _radius_of(faces, point: np.ndarray, normal: np.ndarray, radius: float) -> float:
+    """`surface_radius_at` from the facing faces (`_facing_faces`) that hold all within `radius`."""
     if faces is None:
         return math.inf
     tri, _, cen = faces

@@ -203,7 +203,7 @@ def displacement(x: np.ndarray, G: np.ndarray, nb: Neighbourhood, members: np.nd
         reach = float(np.sqrt(nb.dist2[members].max())) + float(Gm_rho.max())
         local = np.flatnonzero(nb.dist2 < reach * reach * (1.0 + 1e-12))
         owner, nbr = neighbour_pairs(x, G, members, local)
-        need = np.union1d(members, nbr)
+        need = np.flatnonzero(np.bincount(np.concatenate([members, nbr]), minlength=x.shape[0]))  # = union1d
     else:
         owner = nbr = np.zeros(0, dtype=np.int64)
         need = members

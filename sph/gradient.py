@@ -16,6 +16,7 @@ from sph.kernel import GRAD_NORM
 
 CORRECTIONS = (0, 1, 2)  # gradient orders: plain SPH, Bonet-Lok, quadratic WLS
 DET_TOL = 1e-6  # relative |det B_i| below which the Bonet-Lok correction falls back to I
+QUAD_MIN = 9  # neighbours a quadratic fit needs at least (its 9 monomials)
 QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix (pseudo-inverse)
 PAD_SLOTS = 1 << 16  # (member, neighbour) slots padded at once: a block's arrays stay in cache
 RADIUS_BINS = 4  # neighbour searches per analysis, over members of similar support radius
@@ -110,7 +111,9 @@ def sph_gradient(
         inside = (q > 0.0) & (q < 1.0)
         qs = np.where(inside, q, 1.0)
         k = np.where(inside, GRAD_NORM * det[own] * (1.0 - qs) ** 2 / qs, 0.0)
-        g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i)
+        g = None  # grad W(x_i - x_j, G_i) = k G^2 (x_j - x_i): only the plain and Bonet-Lok weights use it
+        if order < 2 or (cnt[a:b] < QUAD_MIN).any():
+            g = k[:, None] * np.einsum("eab,eb->ea", Gi, Gx)
         grad[a:b], used[a:b] = _block_gradient(order, K, own - a, np.arange(start[a], start[b]) - start[own],
                                                xi, g, k, volume[j], u[j] - u[i], cnt[a:b],
                                                None if srad is None else srad[a:b])
@@ -137,7 +140,7 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
 
     # members whose quadratic fit is taken (order 2, at least 9 neighbours for the 9 monomials); the
     # others take Bonet-Lok (order >= 1) or plain SPH weights
-    quad = cnt >= 9 if order == 2 else np.zeros(m, dtype=bool)
+    quad = cnt >= QUAD_MIN if order == 2 else np.zeros(m, dtype=bool)
     rest = ~quad
     d = np.empty((m, K, 3))
     if rest.any():
