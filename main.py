@@ -43,7 +43,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     import anisofrac as af
-    from sim.run import RunOptions
+    from sim.run import RunOptions, start_run
 
     if args.frames is not None and args.frames < 1:
         from core.errors import ConfigError
@@ -64,9 +64,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
                       progress=not args.no_progress, until_settled=not args.all_frames,
-                      colors=args.colors, crack_lines=not args.no_crack_lines, export=exports)
-    with af.Simulation(cfg) as sim:  # the Python API (docs/api.md)
-        stats = sim.run_headless(opts)
+                      colors=args.colors, crack_lines=not args.no_crack_lines, export=exports,
+                      draw_process=not args.draw_here)
+    start = start_run(cfg, opts)  # the output folder, and the drawing process starting beside the build
+    try:
+        sim = af.Simulation(cfg)  # the Python API (docs/api.md)
+    except BaseException:
+        if start.drawing is not None:
+            start.drawing.abandon()
+        raise
+    with sim:
+        stats = sim.run_headless(opts, start)
     t1 = stats["table1"]
     print(f"{cfg.scene.name}: {stats['frames']} frames, {t1['fragments']} fragments, "
           f"{len(stats['events'])} fracture events, {stats['timings']['average_fps']} frames/s -> {out}"
@@ -239,6 +247,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="do not draw the lines where cracks meet the surface (pieces that stay together)")
     r.add_argument("--all-frames", action="store_true",
                    help="run every frame (default: stop once every piece has rested for 1 s)")
+    r.add_argument("--draw-here", action="store_true",
+                   help="draw the frames in this process (default: a second process draws them while the next "
+                        "frame steps, where there are two cores)")
     runtime_options(r)
     r.set_defaults(func=_cmd_run)
 

@@ -337,12 +337,13 @@ class Simulation:
         verts, faces, _ = self.fragment_mesh()
         return write_mesh(path, verts, faces)
 
-    def run_headless(self, opts) -> dict:
+    def run_headless(self, opts, start=None) -> dict:
         """`main.py run`: frames, video and stats.json into opts.out (sim.run.RunOptions); the
-        simulation runs on from where it is."""
+        simulation runs on from where it is. `start`: sim.run.start_run's, made before this
+        Simulation was built (the drawing process then starts while the World builds)."""
         from sim.run import run
 
-        return run(self.config, opts, world=self.world)
+        return run(self.config, opts, world=self.world, start=start)
 
     def close(self) -> None:
         """Free the Taichi fields of the renderers and of the World."""

@@ -9,7 +9,19 @@ from __future__ import annotations
 
 
 class SandboxError(Exception):
-    """Base of every error the command line reports as a plain message."""
+    """Base of every error the command line reports as a plain message. It pickles as it is (its
+    message and attributes, whatever its constructor takes): the drawing process sends its errors
+    back to the simulation (render/draw_process.py)."""
+
+    def __reduce__(self):
+        return _restore, (type(self), self.args, dict(self.__dict__))
+
+
+def _restore(cls, args: tuple, state: dict) -> SandboxError:
+    error = cls.__new__(cls)
+    Exception.__init__(error, *args)
+    error.__dict__.update(state)
+    return error
 
 
 class MeshError(SandboxError):

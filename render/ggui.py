@@ -84,6 +84,17 @@ def vulkan_status() -> tuple[bool, str]:
     return _vulkan_status
 
 
+def known_vulkan_status() -> tuple[bool, str] | None:
+    """`vulkan_status()` where this process has it already, else None (nothing is probed)."""
+    return _vulkan_status
+
+
+def assume_vulkan_status(status: tuple[bool, str]) -> None:
+    """Take another process's `vulkan_status()` (the drawing process takes the simulation's)."""
+    global _vulkan_status
+    _vulkan_status = (bool(status[0]), str(status[1]))
+
+
 def vulkan_available() -> bool:
     """True when GGUI can render offscreen here (Vulkan driver present and working)."""
     return vulkan_status()[0]

@@ -153,7 +153,7 @@ class SceneView:
     so that cracks show where the pieces stay together (a held pane's sectors, a crack that did not
     separate); its geometry is cached per body until a fracture changes the body."""
 
-    def __init__(self, world, colors: str = "material", crack_lines: bool = True) -> None:
+    def __init__(self, world, colors: str = "material", crack_lines: bool = True, scene_factory=RenderScene) -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
@@ -164,10 +164,10 @@ class SceneView:
         # room for the crack faces and debris of the first events, and a pose for every body the rigid
         # store can hold: a larger buffer is a new Taichi field, and the render kernels that read it
         # recompile (about 2 s for the surfaces; Pots' pose buffer grew past 64 and 128 bodies, 0.1-0.2 s)
-        self.scene = RenderScene(tri_capacity=SURFACE_HEADROOM * len(rest) + 2,
-                                 body_capacity=world.rigid.capacity["bodies"] if "rigid" in world.stages else 0,
-                                 particle_capacity=world.physical_count if "debris" in world.stages else 0,
-                                 lighting=Lighting.studio())
+        self.scene = scene_factory(tri_capacity=SURFACE_HEADROOM * len(rest) + 2,
+                                   body_capacity=world.rigid.capacity["bodies"] if "rigid" in world.stages else 0,
+                                   particle_capacity=world.physical_count if "debris" in world.stages else 0,
+                                   lighting=Lighting.studio())
         self._version = -1
         self._floor = []
         for col in world.cfg.colliders:
@@ -260,11 +260,18 @@ class SceneView:
             if w.surface_version != self._version:
                 self._refresh_surfaces()
                 self._version = w.surface_version
-            s = w.rigid._s
-            self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
-            if "debris" in w.stages:
-                self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count,
-                                               debris_color(w))
+            if getattr(self.scene, "host_side", False):  # a SceneFeed (render/draw_process.py): host arrays
+                st = w.rigid.body_state()
+                self.scene.set_poses(st.x, st.q, w.rigid.ref_coms())
+                if "debris" in w.stages:
+                    d = w.debris.state()
+                    self.scene.set_particles(d["x"], d["r"], debris_color(w))
+            else:
+                s = w.rigid._s
+                self.scene.copy_poses_from(s.body_x, s.body_q, s.body_ref_com, w.rigid.n_bodies)
+                if "debris" in w.stages:
+                    self.scene.copy_particles_from(w.debris.debris_x, w.debris.debris_r, w.debris.count,
+                                                   debris_color(w))
         else:  # elastic scenes: the particles themselves
             x = w.elastic.positions()
             colors = np.where(w.elastic_fixed[:, None], [[0.35, 0.35, 0.4]], [[0.85, 0.55, 0.25]])
@@ -282,18 +289,26 @@ class HeadlessSession:
     frame benchmark and the framing test draw frames in memory."""
 
     def __init__(self, world, kind: str, width: int, height: int, out: Path | None = None, video: str = "none",
-                 colors: str = "material", crack_lines: bool = True) -> None:
+                 colors: str = "material", crack_lines: bool = True, drawing=None) -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
-        self.renderer = make_renderer(kind, width, height)  # first: a renderer that cannot start allocates nothing
-        self.description = self.renderer.message
-        self.view = SceneView(world, colors, crack_lines)
+        self.drawing = drawing  # a started render.draw_process.DrawingProcess: it draws and writes the frames
         self.framing = FollowCamera(camera_for(world, width / height), width / height, floor_height(world),
                                     follow=world.cfg.camera.mode == "follow")
         self.camera = self.framing.camera
-        self.frames = PngSequenceWriter(Path(out) / "frames") if out is not None else None
-        self.video = None
+        self.frames = self.video = self.renderer = None
+        self.report: dict = {}  # the drawing process's, once closed
+        if drawing is not None:
+            self.description = drawing.started()
+            self.view = SceneView(world, colors, crack_lines, scene_factory=drawing.feed)
+            drawing.send("camera", self.framing)
+            drawing.send("warm")  # its renderer compiles while the simulation takes the first step
+            return
+        self.renderer = make_renderer(kind, width, height)  # first: a renderer that cannot start allocates nothing
+        self.description = self.renderer.message
+        self.view = SceneView(world, colors, crack_lines)
         if out is not None:
+            self.frames = PngSequenceWriter(Path(out) / "frames")
             self.video = make_writer(video, out, fps=world.cfg.scene.fps, stem=world.cfg.scene.name)
 
     def draw(self) -> np.ndarray | None:
@@ -301,7 +316,12 @@ class HeadlessSession:
         self.camera = self.framing.update(*self.view.scene.body_bounds())
         return self.renderer.render(self.view.scene, self.camera)
 
-    def write_frame(self) -> np.ndarray:
+    def write_frame(self) -> np.ndarray | None:
+        """Draw the frame and write it (the drawing process's image is not returned)."""
+        if self.drawing is not None:
+            self.view.refresh()
+            self.drawing.draw()
+            return None
         img = self.draw()
         self.frames.write(img)
         if self.video is not None:
@@ -309,6 +329,9 @@ class HeadlessSession:
         return img
 
     def close(self) -> None:
+        if self.drawing is not None:
+            self.report = self.drawing.close()
+            return
         if self.video is not None:
             self.video.close()
         if self.frames is not None:

@@ -157,6 +157,10 @@ class RigidWorld(HostSync):
     def body_ref_com(self, body: int) -> np.ndarray:
         return np.array(self._hb.ref_com[body], dtype=np.float64)
 
+    def ref_coms(self) -> np.ndarray:
+        """(NB, 3) m: every body's centre of mass in its reference frame (body_x is where it is now)."""
+        return np.array(self._hb.ref_com[: self._nb], dtype=np.float64).reshape(-1, 3)
+
     def body_inertia(self, body: int) -> np.ndarray:
         """(3, 3) kg m^2: body-frame inertia about the COM (after the floor of rigid.mass)."""
         return np.array(self._hb.inertia[body], dtype=np.float64)
@@ -330,18 +334,9 @@ class RigidWorld(HostSync):
             raise ConfigError("remove_bodies.ids", ids.tolist(), f"body ids in [0, {self._nb})")
         st = self._download_bodies(self._nb)
         self.wake_near(ids, state=st)
-        zero3 = np.zeros(3)
-        for b in ids:
-            transfers.k_set_body_state(
-                self._s,
-                int(b),
-                st.x[b].astype(numpy_float()),
-                st.q[b].astype(numpy_float()),
-                zero3.astype(numpy_float()),
-                zero3.astype(numpy_float()),
-                0,
-                0,
-            )
+        fdt, zero3 = numpy_float(), np.zeros(3, numpy_float())
+        for b in ids:  # at rest where it was, not alive
+            transfers.k_set_body_state(self._s, int(b), st.x[b].astype(fdt), st.q[b].astype(fdt), zero3, zero3, 0, 0)
         prev = self._download_prev()
         keep = ~np.isin(self._sph_body, ids)
         old_to_new = np.full(self._ns, -1, np.int64)

@@ -57,6 +57,7 @@ class RunOptions:
     until_settled: bool = True  # stop once nothing has moved for SETTLED_S (False: every frame)
     colors: str = "material"  # material: each material's look | fragments: a colour per fragment
     crack_lines: bool = True  # draw where crack faces meet the outer surface (render/crack_lines.py)
+    draw_process: bool = True  # draw on a second process while the next frame steps (render/draw_process.py)
 
 
 def versions() -> dict:
@@ -129,32 +130,67 @@ def write_animation(recorder, out: Path, kinds) -> list[str]:
     return [EXPORT_FILES[k] for k in kinds]
 
 
-def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
-    """Run a scene headless; returns the stats written to stats.json. With `world` (a built World of
-    `cfg`, e.g. the Python API's Simulation.world) that world runs on from where it is and stays
-    allocated; without, a World is built and released at the end."""
-    from tqdm import tqdm
+@dataclass
+class RunStart:
+    """What a run sets up before its World: the output folder, ready, and the drawing process (None
+    where frames are drawn in this process), started first so that it starts while the World builds."""
 
-    from sim.world import World
+    out: Path
+    drawing: object = None  # render.draw_process.DrawingProcess
+
+
+def start_run(cfg: SceneConfig, opts: RunOptions) -> RunStart:
+    """Prepare the output folder and start the drawing process: a second process draws and writes the
+    frames while this one steps the next (render/draw_process.py) where there are frames to draw, two
+    cores to share and `opts.draw_process`."""
+    from core.host_threads import host_cores
 
     out = prepare_output_dir(opts.out, opts.overwrite)
     if opts.overwrite:
         remove_frame_sequences(out)  # a shorter run must not leave an earlier one's frames behind
+    if opts.renderer == "none" or not opts.draw_process or host_cores() < 2:
+        return RunStart(out)
+    from render.draw_process import DrawingProcess
+
+    return RunStart(out, DrawingProcess(opts.renderer, opts.width, opts.height, out, opts.video, cfg.scene.fps,
+                                        cfg.scene.name))
+
+
+def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart):
+    """The World (built here when `world` is None) and the HeadlessSession that draws its frames (None
+    without a renderer); on an error, what was made is released and the drawing process ended."""
+    from sim.world import World
+
+    own, renderer = world is None, None
+    try:
+        world = World(cfg) if own else world
+        if opts.renderer != "none":
+            from render.session import HeadlessSession
+
+            renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, start.out, opts.video,
+                                       opts.colors, opts.crack_lines, drawing=start.drawing)
+            print(renderer.description, file=sys.stderr)
+    except BaseException:
+        if start.drawing is not None:
+            start.drawing.abandon()
+        if own and world is not None:
+            world.release()
+        raise
+    return world, renderer
+
+
+def run(cfg: SceneConfig, opts: RunOptions, world=None, start: RunStart | None = None) -> dict:
+    """Run a scene headless; returns the stats written to stats.json. With `world` (a built World of
+    `cfg`, e.g. the Python API's Simulation.world) that world runs on from where it is and stays
+    allocated; without, a World is built and released at the end. `start`: `start_run`'s, made before
+    the World was built (else made here)."""
+    from tqdm import tqdm
+
+    start = start or start_run(cfg, opts)
+    out, drawing = start.out, start.drawing
     frames = opts.frames or cfg.scene.frames
     own = world is None
-    world = World(cfg) if own else world
-    renderer = None
-    if opts.renderer != "none":
-        from render.session import HeadlessSession
-
-        try:
-            renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, out, opts.video, opts.colors,
-                                       opts.crack_lines)
-        except BaseException:
-            if own:
-                world.release()
-            raise
-        print(renderer.description, file=sys.stderr)
+    world, renderer = _world_and_frames(cfg, opts, world, start)
     t0 = time.perf_counter()
     done = 0
     interrupted = False
@@ -183,7 +219,7 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
 
                 write_frame_exports(world, out, done - 1, opts.meshes, opts.vtu)
             frame_wall_ms.append((time.perf_counter() - t_frame) * 1e3)
-            if first_frame_unix is None:
+            if first_frame_unix is None and drawing is None:
                 first_frame_unix = time.time()
             bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
             bar.update(1)
@@ -194,10 +230,13 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None) -> dict:
         interrupted = True
     finally:
         bar.close()
-        wall = time.perf_counter() - t0
         if renderer is not None:
             renderer.close()
+            first_frame_unix = renderer.report.get("first_frame_unix", first_frame_unix)
+        wall = time.perf_counter() - t0  # the drawing process's last frames included
         stats = collect_stats(world, wall, done, interrupted, frame_wall_ms, first_frame_unix)
+        if renderer is not None and renderer.report:
+            stats["timings"]["drawing_peak_mb"] = round(renderer.report["peak_mb"], 1)
         stats["stopped"] = stopped
         if recorder is not None:
             stats["exports"] = write_animation(recorder, out, opts.export)

@@ -1,0 +1,274 @@
+"""Frames drawn on a second process while the simulation steps the next frame (issue 16 item 4:
+both cores, where it pays; DESIGN.md section 7).
+
+A drawn frame of the pot took about 20 ms of simulation and 48 ms of drawing and writing, one after
+the other on one core. `main.py run` now starts a drawing process first thing (its imports, Taichi
+and renderer start while the World builds) and feeds it: the simulation process keeps what needs the
+World (`SceneView`: which bodies a fracture changed, their surfaces, colours and crack lines; the
+poses and debris read from the stores), and sends each call it would make on a `RenderScene` as a
+message (`SceneFeed`); the drawing process keeps the `RenderScene`, the renderer, the following
+camera and the PNG and video writers. It renders the scene once as soon as it has one, so that the
+renderer's kernels compile while the simulation takes its first step.
+
+The same calls in the same order on the same numbers give the same frames, byte for byte
+(tests/regression/test_draw_process.py). The drawing process has its own Taichi offline cache (two
+processes compiling into one cache at once can crash Taichi 1.7.4: docs/decisions.md) and ignores
+Ctrl-C (the simulation process ends it after the last frame). Its errors come back as the
+exception it raised; if it dies, the error names its exit status and the end of what it printed.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import resource
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+from multiprocessing.connection import Connection
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CACHE_SUBDIR = "drawing"  # the drawing process's offline cache, inside the simulation's
+STDERR_TAIL = 2000  # characters of the drawing process's output kept in an error
+END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before it is killed
+FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
+
+
+class DrawingProcessError(RuntimeError):
+    """The drawing process died or could not start."""
+
+
+class SceneFeed:
+    """Stands in for the RenderScene that `SceneView` drives: every call becomes a message. Poses and
+    particles come as host arrays (`host_side`), read through the stores' own download kernels."""
+
+    host_side = True
+
+    def __init__(self, drawing: DrawingProcess, **scene_args) -> None:
+        self._drawing = drawing
+        drawing.send("scene", scene_args)
+
+    def update_surfaces(self, blocks: dict, drop=()) -> None:
+        self._drawing.send("call", ("update_surfaces", (blocks, list(drop))))
+
+    def set_poses(self, x, q, ref_com) -> None:
+        self._drawing.send("call", ("set_poses", (x, q, ref_com)))
+
+    def set_particles(self, x, radius, colors) -> None:
+        self._drawing.send("call", ("set_particles", (x, radius, colors)))
+
+    def update(self) -> None:
+        self._drawing.send("call", ("update", ()))
+
+    def release(self) -> None:
+        """The drawing process releases its scene when it closes."""
+
+
+class DrawingProcess:
+    """The simulation's end of a drawing process (module doc)."""
+
+    def __init__(self, kind: str, width: int, height: int, out: Path, video: str, fps: float, stem: str) -> None:
+        import taichi as ti
+
+        from core.runtime import runtime
+
+        rt = runtime()
+        mine, theirs = socket.socketpair()
+        self._log = tempfile.TemporaryFile()  # what the drawing process prints (kept for an error)
+        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=str(
+            Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR))
+        self._proc = subprocess.Popen([sys.executable, "-m", "render.draw_process", str(theirs.fileno())],
+                                      pass_fds=[theirs.fileno()], cwd=ROOT, env=env, stdin=subprocess.DEVNULL,
+                                      stdout=self._log, stderr=subprocess.STDOUT)
+        theirs.close()
+        self._conn = Connection(mine.detach())
+        self.description = None
+        self.report: dict = {}
+        self.sent = self.drawn = 0  # frames asked for, frames written
+        ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
+        self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
+                                height=height, out=str(out), video=video, fps=fps, stem=stem,
+                                vulkan=ggui.known_vulkan_status() if ggui is not None else None))
+
+    def send(self, what: str, data=None) -> None:
+        while self._conn.poll():  # an error it raised meanwhile, or its start
+            self._receive()
+        try:
+            self._conn.send((what, data))
+        except (BrokenPipeError, ConnectionResetError):
+            self._died()
+
+    def _receive(self) -> tuple:
+        """The next message; raises the drawing process's error."""
+        try:
+            what, data = self._conn.recv()
+        except (EOFError, ConnectionResetError):
+            self._died()
+        if what == "error":
+            self._proc.wait()
+            raise _unpickled(*data)
+        if what == "started":
+            self.description = data
+        elif what == "drawn":
+            self.drawn += 1
+        return what, data
+
+    def _died(self):
+        code = self._proc.wait()
+        self._log.seek(0)
+        tail = self._log.read().decode(errors="replace")[-STDERR_TAIL:]
+        raise DrawingProcessError(f"the drawing process ended (exit status {code}); its output ended with:\n{tail}")
+
+    def started(self) -> str:
+        """Wait until the renderer has started; returns its description."""
+        while self.description is None:
+            self._receive()
+        return self.description
+
+    def feed(self, **scene_args) -> SceneFeed:
+        return SceneFeed(self, **scene_args)
+
+    def draw(self) -> None:
+        """Draw and write a frame of the scene as the calls so far left it; waits while the drawing
+        process is more than FRAMES_AHEAD frames behind (a frame's wall time then counts its drawing)."""
+        self.send("draw")
+        self.sent += 1
+        while self.sent - self.drawn > FRAMES_AHEAD:
+            self._receive()
+
+    def close(self) -> dict:
+        """Finish the frames sent, close the writers and the process; returns its report
+        (first_frame_unix: when the first frame was written; peak_mb: its peak resident memory)."""
+        try:
+            if self._proc.poll() is None:
+                self.send("close")
+                while True:
+                    what, data = self._receive()
+                    if what == "closed":
+                        self.report = data
+                        break
+        finally:
+            self._end()
+        return self.report
+
+    def abandon(self) -> None:
+        """End the process without its frames (the run failed before it drew one)."""
+        self._end()
+
+    def _end(self) -> None:
+        self._conn.close()  # the drawing process reads the end of its input and stops
+        try:
+            self._proc.wait(timeout=END_WAIT_S)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
+        self._log.close()
+
+
+def _pickled(exc: BaseException) -> tuple[bytes | None, str]:
+    """An exception as (pickle, or None where it does not pickle; its traceback as text)."""
+    text = "".join(traceback.format_exception(exc))
+    try:
+        data = pickle.dumps(exc)
+        pickle.loads(data)
+    except Exception:
+        data = None
+    return data, text
+
+
+def _unpickled(data: bytes | None, text: str) -> BaseException:
+    return pickle.loads(data) if data is not None else DrawingProcessError(f"the drawing process failed:\n{text}")
+
+
+class _Drawer:
+    """The drawing process's side: a RenderScene, the renderer, the camera and the writers."""
+
+    def __init__(self, start: dict) -> None:
+        from core.runtime import init_taichi
+        from render.select import make_renderer
+        from render.writers import PngSequenceWriter, make_writer
+
+        init_taichi(start["arch"], start["precision"], start["threads"])
+        if start["vulkan"] is not None:
+            from render.ggui import assume_vulkan_status
+
+            assume_vulkan_status(start["vulkan"])
+        self.renderer = make_renderer(start["kind"], start["width"], start["height"])
+        out = Path(start["out"])
+        self.frames = PngSequenceWriter(out / "frames")
+        self.video = make_writer(start["video"], out, fps=start["fps"], stem=start["stem"])
+        self.scene = None
+        self.framing = None
+        self.first_frame_unix = None
+        self.warm = False
+
+    def handle(self, what: str, data) -> str | None:
+        """One message; returns "drawn" once a frame is written."""
+        from render.scene_data import RenderScene
+
+        if what == "scene":
+            self.scene = RenderScene(**data)
+        elif what == "camera":
+            self.framing = data
+        elif what == "call":
+            name, args = data
+            getattr(self.scene, name)(*args)
+        elif what == "warm":
+            self.renderer.render(self.scene, self.framing.camera)  # compiles; the camera does not move
+        elif what == "draw":
+            self.framing.update(*self.scene.body_bounds())
+            img = self.renderer.render(self.scene, self.framing.camera)
+            self.frames.write(img)
+            if self.video is not None:
+                self.video.write(img)
+            if self.first_frame_unix is None:
+                self.first_frame_unix = time.time()
+            return "drawn"
+        else:
+            raise AssertionError(f"unknown message {what!r}")
+
+    def close(self) -> dict:
+        if self.video is not None:
+            self.video.close()
+        self.frames.close()
+        self.renderer.release()
+        if self.scene is not None:
+            self.scene.release()
+        return dict(first_frame_unix=self.first_frame_unix,
+                    peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+
+
+def serve(fd: int) -> int:
+    """The drawing process's loop: messages until 'close' (or the simulation's end of the socket)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the simulation's to handle
+    conn = Connection(fd)
+    drawer = None
+    try:
+        while True:
+            try:
+                what, data = conn.recv()
+            except EOFError:
+                return 0  # the simulation ended without closing: nothing more to write
+            if what == "start":
+                drawer = _Drawer(data)
+                conn.send(("started", drawer.renderer.message))
+            elif what == "close":
+                conn.send(("closed", drawer.close()))
+                return 0
+            elif drawer.handle(what, data) == "drawn":
+                conn.send(("drawn", None))
+    except BaseException as exc:  # noqa: BLE001 - every error goes back to the simulation
+        try:
+            conn.send(("error", _pickled(exc)))
+        except OSError:
+            pass
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(serve(int(sys.argv[1])))

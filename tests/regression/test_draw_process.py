@@ -1,0 +1,52 @@
+"""Frames drawn on a second process (render/draw_process.py) are the frames drawn in the simulation's
+own process, byte for byte, through a fracture event, its debris and the surfaces it changed; the
+drawing process's errors reach the caller as the error it raised, and its death as an error that
+names its exit status."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from core.errors import ConfigError
+from render.draw_process import DrawingProcess, DrawingProcessError
+from scenes.loader import load_scene
+from sim.run import RunOptions, run
+
+FRAMES = 8  # glass_r3: the ball breaks the pane within 6 frames and throws debris
+
+
+def test_the_drawing_process_draws_the_frames_drawn_in_process(tmp_path):
+    cfg = load_scene("glass_r3")
+    stats = {}
+    for mode, separate in (("process", True), ("here", False)):
+        stats[mode] = run(cfg, RunOptions(out=tmp_path / mode, frames=FRAMES, renderer="raster", video="gif",
+                                          width=96, height=72, progress=False, draw_process=separate))
+    assert stats["process"]["events"] and stats["process"]["table1"]["pieces"]["debris"] > 0
+    assert stats["process"]["state_hash"] == stats["here"]["state_hash"]
+    for k in range(FRAMES):
+        name = f"frames/frame_{k:05d}.png"
+        assert (tmp_path / "process" / name).read_bytes() == (tmp_path / "here" / name).read_bytes(), name
+    assert (tmp_path / "process" / "glass_r3.gif").read_bytes() == (tmp_path / "here" / "glass_r3.gif").read_bytes()
+    timings = json.loads((tmp_path / "process" / "stats.json").read_text())["timings"]
+    assert timings["first_frame_unix"] > 0 and timings["drawing_peak_mb"] > 0
+
+
+def test_an_error_in_the_drawing_process_reaches_the_caller(tmp_path):
+    with pytest.raises(ConfigError, match="render.size"):
+        run(load_scene("tet_cut_31"), RunOptions(out=tmp_path / "t", frames=2, renderer="raster", video="none",
+                                                 width=0, height=48, progress=False))
+    assert not (tmp_path / "t" / "stats.json").exists()
+
+
+def test_a_drawing_process_that_dies_is_named(tmp_path):
+    drawing = DrawingProcess("raster", 32, 24, tmp_path, "none", 30.0, "t")
+    assert "raster" in drawing.started()
+    drawing._proc.kill()
+    drawing._proc.wait()
+    with pytest.raises(DrawingProcessError, match="exit status -9"):
+        for _ in range(100):  # the first sends may still fit in the socket's buffer
+            drawing.draw()
+        drawing.close()
+    drawing.abandon()
