@@ -16,8 +16,9 @@ twice and keep the second table. From each run's stats.json and the process:
 - steady frame rate: frames per second over the frames after the first 10% of the run (the start,
   the impact and its events are in those), drawn and not drawn, and the average over every frame;
 - the longest frame after the first one (the first compiles every kernel), drawn;
-- build time (World), start to first frame (process launch to the first frame done, drawn) and
-  the process's peak resident memory (drawn run).
+- build time (World), start to first frame (process launch to the first frame written, drawn) and
+  peak resident memory (drawn run): the simulation process's plus, where frames are drawn on a
+  second process (render/draw_process.py, the default), that process's own peak.
 
 Also the pieces of the drawn run beside the paper's Table 1. The tables are printed with the
 machine described; `--readme` also replaces the README's two tables between their markers, so the
@@ -106,7 +107,7 @@ def summarise(scene: str, drawn: dict, bare: dict) -> dict:
         longest_ms=max(frame_ms[1:]) if len(frame_ms) > 1 else None,
         build_s=t["build_s"],
         first_frame_s=t["first_frame_unix"] - drawn["_bench"]["launched"] if t["first_frame_unix"] else None,
-        peak_mb=drawn["_bench"]["peak_mb"],
+        peak_mb=drawn["_bench"]["peak_mb"] + t.get("drawing_peak_mb", 0.0),
         pieces=drawn["table1"].get("pieces") or {"total": drawn["table1"].get("fragments")},
     )
 

@@ -37,6 +37,7 @@ CACHE_SUBDIR = "drawing"  # the drawing process's offline cache, inside the simu
 STDERR_TAIL = 2000  # characters of the drawing process's output kept in an error
 END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before it is killed
 FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
+ANSWER_WAIT_S = 600.0  # s: the longest wait for an answer (a first frame compiles the renderer, cold: ~1 min)
 
 
 class DrawingProcessError(RuntimeError):
@@ -90,6 +91,7 @@ class DrawingProcess:
         self.description = None
         self.report: dict = {}
         self.sent = self.drawn = 0  # frames asked for, frames written
+        self.failed = False  # its error was raised already
         ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
         self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
                                 height=height, out=str(out), video=video, fps=fps, stem=stem,
@@ -105,11 +107,15 @@ class DrawingProcess:
 
     def _receive(self) -> tuple:
         """The next message; raises the drawing process's error."""
+        if not self._conn.poll(ANSWER_WAIT_S):
+            self._proc.kill()
+            self._died(f"did not answer in {ANSWER_WAIT_S:.0f} s and was stopped")
         try:
             what, data = self._conn.recv()
         except (EOFError, ConnectionResetError):
             self._died()
         if what == "error":
+            self.failed = True
             self._proc.wait()
             raise _unpickled(*data)
         if what == "started":
@@ -118,11 +124,12 @@ class DrawingProcess:
             self.drawn += 1
         return what, data
 
-    def _died(self):
+    def _died(self, how: str = "ended"):
+        self.failed = True
         code = self._proc.wait()
         self._log.seek(0)
         tail = self._log.read().decode(errors="replace")[-STDERR_TAIL:]
-        raise DrawingProcessError(f"the drawing process ended (exit status {code}); its output ended with:\n{tail}")
+        raise DrawingProcessError(f"the drawing process {how} (exit status {code}); its output ended with:\n{tail}")
 
     def started(self) -> str:
         """Wait until the renderer has started; returns its description."""
@@ -145,7 +152,7 @@ class DrawingProcess:
         """Finish the frames sent, close the writers and the process; returns its report
         (first_frame_unix: when the first frame was written; peak_mb: its peak resident memory)."""
         try:
-            if self._proc.poll() is None:
+            if not self.failed:  # else its error was raised already: the run ends with what was written
                 self.send("close")
                 while True:
                     what, data = self._receive()
