@@ -4,9 +4,10 @@ both cores, where it pays; DESIGN.md section 7).
 A drawn frame of the pot took about 20 ms of simulation and 48 ms of drawing and writing, one after
 the other on one core. `main.py run` now starts a drawing process first thing (its imports, Taichi
 and renderer start while the World builds) and feeds it: the simulation process keeps what needs the
-World (`SceneView`: which bodies a fracture changed, their surfaces, colours and crack lines; the
-poses and debris read from the stores), and sends each call it would make on a `RenderScene` as a
-message (`SceneFeed`); the drawing process keeps the `RenderScene`, the renderer, the following
+World (`SceneView`: which bodies a fracture changed and their particles, taken from the store; the
+poses and debris read from the stores), and sends it, and each call it would make on a `RenderScene`,
+as a message (`SceneFeed`); the drawing process keeps the bodies' surface blocks (their surfaces,
+colours and crack lines, render/surface_blocks.py), the `RenderScene`, the renderer, the following
 camera and the PNG and video writers. It renders the scene once as soon as it has one, so that the
 renderer's kernels compile while the simulation takes its first step.
 
@@ -56,6 +57,13 @@ class SceneFeed:
 
     def update_surfaces(self, blocks: dict, drop=()) -> None:
         self._drawing.send("call", ("update_surfaces", (blocks, list(drop))))
+
+    def make_blocks(self, config: dict) -> None:
+        """The bodies' surface blocks are made there (render.surface_blocks.SurfaceBlocks(**config))."""
+        self._drawing.send("blocks", config)
+
+    def apply_surface_changes(self, changes) -> None:
+        self._drawing.send("changes", changes)
 
     def set_poses(self, x, q, ref_com) -> None:
         self._drawing.send("call", ("set_poses", (x, q, ref_com)))
@@ -209,7 +217,7 @@ class _Drawer:
         out = Path(start["out"])
         self.frames = PngSequenceWriter(out / "frames")
         self.video = make_writer(start["video"], out, fps=start["fps"], stem=start["stem"])
-        self.scene = None
+        self.scene = self.blocks = None
         self.framing = None
         self.first_frame_unix = None
         self.warm = False
@@ -217,9 +225,14 @@ class _Drawer:
     def handle(self, what: str, data) -> str | None:
         """One message; returns "drawn" once a frame is written."""
         from render.scene_data import RenderScene
+        from render.surface_blocks import SurfaceBlocks
 
         if what == "scene":
             self.scene = RenderScene(**data)
+        elif what == "blocks":
+            self.blocks = SurfaceBlocks(**data)
+        elif what == "changes":
+            self.blocks.apply(data, self.scene)
         elif what == "camera":
             self.framing = data
         elif what == "call":

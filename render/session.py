@@ -4,8 +4,9 @@ PNG and video writers (DESIGN.md section 7).
 
 Surfaces are rebuilt only when fracture changed them (`World.surface_version`), and then only for the
 bodies it changed: each body is one block of the render buffers (RenderScene.update_surfaces), coloured
-by each material's look with crack faces in its crack shade (`SceneView`); every frame one kernel moves
-them by the body poses, read straight from the rigid store's fields.
+by each material's look with crack faces in its crack shade (render/surface_blocks.py); every frame one
+kernel moves them by the body poses, read straight from the rigid store's fields (or, for a drawing
+process, render/draw_process.py, through the stores' download kernels).
 """
 
 from __future__ import annotations
@@ -15,14 +16,14 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import ConfigError
-from geometry.surface import RestSurface
 from render.camera import Camera
-from render.crack_lines import LIFT_REL, LINE_DARK, LINE_WIDTH_REL, line_color, ribbons
+from render.crack_lines import LIFT_REL, LINE_WIDTH_REL
 from render.framing import FollowCamera
-from render.looks import CRACK_GREY, material_look
+from render.looks import material_look
 from render.primitives import ground_quad
-from render.scene_data import Lighting, MeshPart, RenderScene, body_palette
+from render.scene_data import Lighting, MeshPart, RenderScene
 from render.select import make_renderer
+from render.surface_blocks import SurfaceBlocks, surface_changes
 from render.writers import PngSequenceWriter, make_writer
 
 FLOOR_COLOR = (0.55, 0.55, 0.58)
@@ -35,69 +36,6 @@ def world_surfaces(world):
     ps = world.particles
     labels = np.where(ps.alive, ps.body, -1).astype(np.int64)
     return fragment_surfaces(ps, labels)
-
-
-class SurfaceCache:
-    """Fragment surfaces rebuilt only for the bodies a fracture changed. A body's closed surface
-    (geometry.surface.fragment_surfaces, which treats every label on its own) depends only on its
-    alive particles and their links; the particle store stamps every body it writes
-    (ParticleStore.body_stamp), and the particles of the changed bodies alone are taken from it, so a
-    fracture event copies nothing of the other bodies to the host. `surfaces(world)` equals
-    `world_surfaces(world)` (tested)."""
-
-    def __init__(self) -> None:
-        self._bodies: dict[int, tuple] = {}  # body -> (stamp, verts, faces, face_id, face_material)
-
-    def update(self, world) -> list[int]:
-        """Rebuild the changed bodies' meshes; returns the live bodies in id order."""
-        from geometry.surface import fragment_surfaces
-
-        store = world.store
-        count, _ = store.body_totals(max(store.body_stamp, default=-1) + 1)
-        bodies = np.flatnonzero(count > 0).tolist()
-        changed = [b for b in bodies if self._bodies.get(b, (None,))[0] != store.body_stamp[b]]
-        self._bodies = {b: v for b, v in self._bodies.items() if count[b] > 0}
-        if changed:
-            ids, ps, _, _ = store.take_bodies(changed)
-            labels = np.where(ps.alive & np.isin(ps.body, changed), ps.body, -1).astype(np.int64)
-            mesh = fragment_surfaces(ps, labels)
-            row = mesh.face_id // 4
-            face_id = ids[row] * 4 + mesh.face_id % 4  # store ids, as the whole-world surfaces give them
-            for b in changed:
-                on = mesh.face_label == b
-                used, inv = np.unique(mesh.faces[on], return_inverse=True)
-                self._bodies[b] = (store.body_stamp[b], mesh.verts[used], inv.reshape(-1, 3), face_id[on],
-                                   ps.material[row[on]])
-        return bodies
-
-    def body_mesh(self, body: int) -> tuple:
-        """(stamp, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
-        return self._bodies[body][:4]
-
-    def body_face_material(self, body: int) -> np.ndarray:
-        """(F,) material id of each face of a live body's mesh after `update`."""
-        return self._bodies[body][4]
-
-    def surfaces(self, world):
-        """The whole world's mesh from the per-body cache (bodies in id order): what `world_surfaces`
-        gives, without rebuilding the unchanged bodies (tests compare the two)."""
-        from geometry.surface import SurfaceMesh
-
-        verts, faces, face_id, vlab, flab = [], [], [], [], []
-        offset = 0
-        for b in self.update(world):
-            _, v, f, fid, _ = self._bodies[b]
-            verts.append(v)
-            faces.append(f + offset)
-            face_id.append(fid)
-            vlab.append(np.full(len(v), b, np.int64))
-            flab.append(np.full(len(f), b, np.int64))
-            offset += len(v)
-        if not verts:
-            e = np.zeros(0, np.int64)
-            return SurfaceMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), e, e, face_id=e)
-        return SurfaceMesh(verts=np.concatenate(verts), faces=np.concatenate(faces), face_label=np.concatenate(flab),
-                           vert_label=np.concatenate(vlab), face_id=np.concatenate(face_id))
 
 
 def rest_surface(world) -> np.ndarray:
@@ -143,24 +81,16 @@ SURFACE_HEADROOM = 4
 
 
 class SceneView:
-    """The renderable state of a World, kept in step with it (shared by headless runs and the viewer).
-
-    Colours: `colors="material"` draws each face in its material's look (render/looks.py) and the faces
-    that cracks created in the look's crack shade; `colors="fragments"` gives every body its own
-    palette colour (crack faces a shade of it). A face is a crack face when it does not lie on the
-    objects' surface at rest (geometry.surface.RestSurface); the answer is cached per tet face.
-    `crack_lines`: where a crack face meets the outer surface, a thin line (render/crack_lines.py),
-    so that cracks show where the pieces stay together (a held pane's sectors, a crack that did not
-    separate); its geometry is cached per body until a fracture changes the body."""
+    """The renderable state of a World, kept in step with it (shared by headless runs and the viewer):
+    the bodies' surface blocks (render/surface_blocks.py: colours by `colors`, "material" or
+    "fragments", and `crack_lines`), the floor, the poses and the debris. With `scene_factory` a
+    render.draw_process.SceneFeed, the blocks are made in the drawing process from what changed."""
 
     def __init__(self, world, colors: str = "material", crack_lines: bool = True, scene_factory=RenderScene) -> None:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
-        self.colors = colors
-        # the objects' surface at rest, indexed once: asked after every fracture event
-        self._rest = RestSurface(rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3)))
-        rest = self._rest.tris
+        rest = rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3))
         # room for the crack faces and debris of the first events, and a pose for every body the rigid
         # store can hold: a larger buffer is a new Taichi field, and the render kernels that read it
         # recompile (about 2 s for the surfaces; Pots' pose buffer grew past 64 and 128 bodies, 0.1-0.2 s)
@@ -168,6 +98,7 @@ class SceneView:
                                    body_capacity=world.rigid.capacity["bodies"] if "rigid" in world.stages else 0,
                                    particle_capacity=world.physical_count if "debris" in world.stages else 0,
                                    lighting=Lighting.studio())
+        self._host_side = getattr(self.scene, "host_side", False)  # a SceneFeed: host arrays, blocks made there
         self._version = -1
         self._floor = []
         for col in world.cfg.colliders:
@@ -176,82 +107,28 @@ class SceneView:
                 self._floor.append(MeshPart(v, f, body=-1, colors=FLOOR_COLOR, roughness=0.9))
         self.looks = material_looks(world)
         size = float(np.ptp(rest.reshape(-1, 3), axis=0).max()) if len(rest) else 1.0
-        self._tol = ON_SURFACE_REL * max(size, 1e-3)  # m: on-surface distance for outer faces
-        self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
-        self._surfaces = SurfaceCache()
-        self.crack_lines = crack_lines
         edge = np.median(np.linalg.norm(rest - np.roll(rest, 1, axis=1), axis=2)) if len(rest) else 0.0
-        self._line_width, self._line_lift = LINE_WIDTH_REL * edge, LIFT_REL * edge  # m
-        self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
-        self._stamps: dict[int, int] = {}  # body -> the stamp of the surface block the scene holds
+        blocks = dict(rest=rest, looks=self.looks, colors=colors, tol=ON_SURFACE_REL * max(size, 1e-3),
+                      line_width=LINE_WIDTH_REL * edge if crack_lines else None, line_lift=LIFT_REL * edge)
+        self.blocks = None if self._host_side else SurfaceBlocks(**blocks)
+        if self._host_side:
+            self.scene.make_blocks(blocks)
+        self._known: dict[int, int] = {}  # body -> the store stamp of the surface the blocks hold
         self.scene.update_surfaces({"floor": self._floor})  # the first block: the viewer draws it alone
         self.refresh()
 
-    def _outer_faces(self, face_id: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-        """(F,) bool: the faces (tet face ids, vertices, faces) lying on the objects' rest surface (the
-        rest are crack faces)."""
-        fid = face_id
-        if len(fid) and fid.max() >= len(self._outer):
-            grown = np.full(max(int(fid.max()) + 1, 2 * len(self._outer)), -1, dtype=np.int8)
-            grown[: len(self._outer)] = self._outer
-            self._outer = grown
-        todo = np.flatnonzero(self._outer[fid] < 0)
-        if todo.size:
-            first = np.unique(fid[todo], return_index=True)[1]  # split faces share their tet face
-            rows = todo[first]
-            self._outer[fid[rows]] = self._rest.covers(verts[faces[rows]], self._tol)
-        return self._outer[fid] == 1
-
-    def _body_parts(self, body: int) -> list[MeshPart]:
-        """A body's surface block: one part per material (its roughness and opacity), faces coloured by
-        look and crack, and its crack lines."""
-        w = self.world
-        if len(self.looks) < len(w.materials):  # a material added after the start (the viewer's ball)
-            self.looks = material_looks(w)
-        stamp, v, f, fid = self._surfaces.body_mesh(body)
-        mat = self._surfaces.body_face_material(body)
-        outer = self._outer_faces(fid, v, f)
-        if self.colors == "fragments":
-            base = np.broadcast_to(body_palette(body + 1)[body], (len(f), 3))
-            crack = 0.6 * base + 0.4 * np.asarray(CRACK_GREY)
-        else:
-            base = np.array([lk.color for lk in self.looks])[mat]
-            crack = np.array([lk.crack() for lk in self.looks])[mat]
-        color = np.where(outer[:, None], base, crack)
-        parts = []
-        for m in np.unique(mat):
-            sel = mat == m
-            look = self.looks[int(m)]
-            parts.append(MeshPart(v, f[sel], body=body, colors=color[sel], color_per="face",
-                                  roughness=look.roughness, opacity=look.opacity))
-        if self.crack_lines:
-            hit = self._ribbons.get(body)
-            if hit is None or hit[0] != stamp:
-                hit = self._ribbons[body] = (stamp, *ribbons(v, f, outer, self._line_width, self._line_lift))
-            _, rv, rf, on_face = hit
-            if len(rf):
-                if self.colors == "fragments":  # light palette colours: the dark line
-                    line = np.broadcast_to(LINE_DARK, (len(rf), 3))
-                else:
-                    line = np.array([line_color(lk.color, lk.opacity) for lk in self.looks])[mat[on_face]]
-                parts.append(MeshPart(rv, rf, body=body, colors=line, color_per="face", roughness=1.0, opacity=1.0))
-        return parts
-
     def _refresh_surfaces(self) -> None:
-        """Write the blocks of the bodies a fracture changed or made, drop those of bodies gone."""
-        bodies = self._surfaces.update(self.world)
-        live = set(bodies)
-        gone = [b for b in self._stamps if b not in live]
-        for b in gone:
-            del self._stamps[b]
-            self._ribbons.pop(b, None)
-        changed = {}
-        for b in bodies:
-            stamp = self._surfaces.body_mesh(b)[0]
-            if self._stamps.get(b) != stamp:
-                changed[b] = self._body_parts(b)
-                self._stamps[b] = stamp
-        self.scene.update_surfaces(changed, drop=gone)
+        """Send what a fracture changed to the blocks (here, or in the drawing process)."""
+        w = self.world
+        changes = surface_changes(w, self._known)
+        if len(self.looks) < len(w.materials):  # a material added after the start (the viewer's ball)
+            self.looks = changes.looks = material_looks(w)
+        self._known = {b: self._known[b] for b in changes.bodies if b in self._known}
+        self._known.update(zip(changes.changed, changes.stamps))
+        if self._host_side:
+            self.scene.apply_surface_changes(changes)
+        else:
+            self.blocks.apply(changes, self.scene)
 
     def refresh(self) -> None:
         """Bring surfaces (when fracture changed them) and poses up to date."""
@@ -260,7 +137,7 @@ class SceneView:
             if w.surface_version != self._version:
                 self._refresh_surfaces()
                 self._version = w.surface_version
-            if getattr(self.scene, "host_side", False):  # a SceneFeed (render/draw_process.py): host arrays
+            if self._host_side:  # read through the stores' download kernels (render/draw_process.py)
                 st = w.rigid.body_state()
                 self.scene.set_poses(st.x, st.q, w.rigid.ref_coms())
                 if "debris" in w.stages:

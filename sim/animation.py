@@ -43,7 +43,8 @@ class AnimationRecorder:
     """Call `record(world, frame)` after every frame (and once before the first at frame 0)."""
 
     def __init__(self, world, fps: float) -> None:
-        from render.session import SurfaceCache, material_looks
+        from render.session import material_looks
+        from render.surface_blocks import SurfaceCache
 
         if "rigid" not in world.stages:
             from core.errors import ConfigError

@@ -25,7 +25,7 @@ def _pots(count: int):
 
 def _strike_first_pot(sim):
     """The event on pot 0 and the store's transfers from the strike to the end of what follows it."""
-    from render.session import SurfaceCache
+    from render.surface_blocks import SurfaceCache
     from sim.guards import check_state
 
     world = sim.world

@@ -118,11 +118,11 @@ def test_each_half_of_a_cut_box_has_the_section_as_rim(split):
     section (0.4 m), within a ribbon's width of the cut, and move with that half's body."""
     world, (view, _) = split
     assert world.fragment_count() == 2
-    assert sorted(view._ribbons) == sorted(world.bodies)
-    for body, (_, rv, _, _) in view._ribbons.items():
+    assert sorted(view.blocks._ribbons) == sorted(world.bodies)
+    for body, (_, rv, _, _) in view.blocks._ribbons.items():
         a, b = rv[0::4], rv[1::4]  # each quad starts with its rim edge (lifted)
         assert np.linalg.norm(b - a, axis=1).sum() == pytest.approx(0.4, rel=1e-9)
-        assert np.abs(a[:, 0]).max() < 1e-9 and np.abs(rv[:, 0]).max() <= view._line_width + 1e-9
+        assert np.abs(a[:, 0]).max() < 1e-9 and np.abs(rv[:, 0]).max() <= view.blocks._line_width + 1e-9
         side = np.sign(world.particles.centroid[world.particles.body == body, 0].mean())
         assert np.all(rv[:, 0] * side >= -1e-9)  # on its own half
 
@@ -148,7 +148,7 @@ def test_the_line_is_drawn_where_the_cut_meets_the_face(split):
     finally:
         r.release()
     m_per_px = 2 * 0.45 * np.tan(np.radians(15.0)) / h  # at the front face, 0.45 m from the eye
-    half = lines._line_width / m_per_px + 1  # px: one ribbon each side of the cut, plus a pixel
+    half = lines.blocks._line_width / m_per_px + 1  # px: one ribbon each side of the cut, plus a pixel
     cols = np.flatnonzero(np.abs(on - off).max(axis=(0, 2)) > 0)
     assert len(cols) and np.abs(cols - (w - 1) / 2).max() <= half
     centre = (w - 1) // 2

@@ -90,7 +90,7 @@ def test_crack_faces_are_the_faces_on_the_cut(split_world):
     world, view = split_world
     assert world.fragment_count() == 2
     mesh = world_surfaces(world)
-    outer = view._outer_faces(mesh.face_id, mesh.verts, mesh.faces)
+    outer = view.blocks.outer_faces(mesh.face_id, mesh.verts, mesh.faces)
     centre = mesh.verts[mesh.faces].mean(1)
     on_cut = np.abs(centre[:, 0]) < 1e-9
     assert on_cut.any() and np.array_equal(~outer, on_cut)
@@ -121,7 +121,8 @@ def _faces_by_label(mesh) -> list:
 def test_surface_cache_equals_a_full_rebuild(taichi_runtime):
     """Surfaces rebuilt only for the bodies a fracture changed are the full rebuild's, face for face,
     through the glass pane's event (cracks, subdivision, shatter) and the frames after it."""
-    from render.session import SurfaceCache, world_surfaces
+    from render.session import world_surfaces
+    from render.surface_blocks import SurfaceCache
 
     world = World(load_scene("glass_r3"))
     cache = SurfaceCache()
