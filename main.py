@@ -70,8 +70,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         sim = af.Simulation(cfg)  # the Python API (docs/api.md)
     except BaseException:
-        if start.drawing is not None:
-            start.drawing.abandon()
+        start.abandon()
         raise
     with sim:
         stats = sim.run_headless(opts, start)

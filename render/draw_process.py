@@ -206,7 +206,6 @@ class _Drawer:
     def __init__(self, start: dict) -> None:
         from core.runtime import init_taichi
         from render.select import make_renderer
-        from render.writers import PngSequenceWriter, make_writer
 
         init_taichi(start["arch"], start["precision"], start["threads"])
         if start["vulkan"] is not None:
@@ -214,13 +213,11 @@ class _Drawer:
 
             assume_vulkan_status(start["vulkan"])
         self.renderer = make_renderer(start["kind"], start["width"], start["height"])
-        out = Path(start["out"])
-        self.frames = PngSequenceWriter(out / "frames")
-        self.video = make_writer(start["video"], out, fps=start["fps"], stem=start["stem"])
+        self.start = start
+        self.frames = self.video = None  # made once the World is built (a failed build writes nothing)
         self.scene = self.blocks = None
         self.framing = None
         self.first_frame_unix = None
-        self.warm = False
 
     def handle(self, what: str, data) -> str | None:
         """One message; returns "drawn" once a frame is written."""
@@ -239,8 +236,10 @@ class _Drawer:
             name, args = data
             getattr(self.scene, name)(*args)
         elif what == "warm":
+            self._open_writers()
             self.renderer.render(self.scene, self.framing.camera)  # compiles; the camera does not move
         elif what == "draw":
+            self._open_writers()
             self.framing.update(*self.scene.body_bounds())
             img = self.renderer.render(self.scene, self.framing.camera)
             self.frames.write(img)
@@ -252,10 +251,19 @@ class _Drawer:
         else:
             raise AssertionError(f"unknown message {what!r}")
 
+    def _open_writers(self) -> None:
+        from render.writers import PngSequenceWriter, make_writer
+
+        if self.frames is None:
+            out = Path(self.start["out"])
+            self.frames = PngSequenceWriter(out / "frames")
+            self.video = make_writer(self.start["video"], out, fps=self.start["fps"], stem=self.start["stem"])
+
     def close(self) -> dict:
         if self.video is not None:
             self.video.close()
-        self.frames.close()
+        if self.frames is not None:
+            self.frames.close()
         self.renderer.release()
         if self.scene is not None:
             self.scene.release()

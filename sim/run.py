@@ -137,6 +137,15 @@ class RunStart:
 
     out: Path
     drawing: object = None  # render.draw_process.DrawingProcess
+    made_out: bool = False  # the output folder did not exist before
+
+    def abandon(self) -> None:
+        """The run failed before its first frame: end the drawing process, and remove the output
+        folder again where this run made it and nothing was written (a rerun needs no --overwrite)."""
+        if self.drawing is not None:
+            self.drawing.abandon()
+        if self.made_out and self.out.is_dir() and not any(self.out.iterdir()):
+            self.out.rmdir()
 
 
 def start_run(cfg: SceneConfig, opts: RunOptions) -> RunStart:
@@ -145,15 +154,16 @@ def start_run(cfg: SceneConfig, opts: RunOptions) -> RunStart:
     cores to share and `opts.draw_process`."""
     from core.host_threads import host_cores
 
+    made = not Path(opts.out).exists()
     out = prepare_output_dir(opts.out, opts.overwrite)
     if opts.overwrite:
         remove_frame_sequences(out)  # a shorter run must not leave an earlier one's frames behind
     if opts.renderer == "none" or not opts.draw_process or host_cores() < 2:
-        return RunStart(out)
+        return RunStart(out, made_out=made)
     from render.draw_process import DrawingProcess
 
     return RunStart(out, DrawingProcess(opts.renderer, opts.width, opts.height, out, opts.video, cfg.scene.fps,
-                                        cfg.scene.name))
+                                        cfg.scene.name), made)
 
 
 def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart):
@@ -171,8 +181,7 @@ def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart
                                        opts.colors, opts.crack_lines, drawing=start.drawing)
             print(renderer.description, file=sys.stderr)
     except BaseException:
-        if start.drawing is not None:
-            start.drawing.abandon()
+        start.abandon()
         if own and world is not None:
             world.release()
         raise

@@ -50,3 +50,20 @@ def test_a_drawing_process_that_dies_is_named(tmp_path):
             drawing.draw()
         drawing.close()
     drawing.abandon()
+
+
+def test_a_run_that_fails_before_its_first_frame_leaves_no_folder(tmp_path, monkeypatch):
+    """The drawing process starts before the World builds; a build that fails ends it and removes the
+    output folder the run made (a rerun needs no --overwrite), as when frames are drawn here."""
+    import sim.world
+
+    def broken(self, cfg, *args, **kwargs):
+        raise ConfigError("objects[0].mesh", "broken.obj", "a closed surface (test)")
+
+    monkeypatch.setattr(sim.world.World, "__init__", broken)
+    for separate in (True, False):
+        out = tmp_path / f"t{separate}"
+        with pytest.raises(ConfigError, match="broken.obj"):
+            run(load_scene("tet_cut_31"), RunOptions(out=out, frames=2, renderer="raster", video="gif", width=32,
+                                                     height=24, progress=False, draw_process=separate))
+        assert not out.exists()
