@@ -33,6 +33,8 @@ import traceback
 from multiprocessing.connection import Connection
 from pathlib import Path
 
+from core.errors import BackendError
+
 ROOT = Path(__file__).resolve().parents[1]
 CACHE_SUBDIR = "drawing"  # the drawing process's offline cache, inside the simulation's
 STDERR_TAIL = 2000  # characters of the drawing process's output kept in an error
@@ -41,8 +43,9 @@ FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (it
 ANSWER_WAIT_S = 600.0  # s: the longest wait for an answer (a first frame compiles the renderer, cold: ~1 min)
 
 
-class DrawingProcessError(RuntimeError):
-    """The drawing process died or could not start."""
+class DrawingProcessError(BackendError):
+    """The drawing process died, stopped answering or failed without an error of its own (the command
+    line prints it as one error, as for a missing backend)."""
 
 
 class SceneFeed:
