@@ -41,6 +41,7 @@ STDERR_TAIL = 2000  # characters of the drawing process's output kept in an erro
 END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before it is killed
 FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
 ANSWER_WAIT_S = 600.0  # s: the longest wait for an answer (a first frame compiles the renderer, cold: ~1 min)
+COMMAND = [sys.executable, "-m", "render.draw_process"]  # the drawing process, given its socket's fd
 
 
 class DrawingProcessError(BackendError):
@@ -94,7 +95,7 @@ class DrawingProcess:
         self._log = tempfile.TemporaryFile()  # what the drawing process prints (kept for an error)
         env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=str(
             Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR))
-        self._proc = subprocess.Popen([sys.executable, "-m", "render.draw_process", str(theirs.fileno())],
+        self._proc = subprocess.Popen([*COMMAND, str(theirs.fileno())],
                                       pass_fds=[theirs.fileno()], cwd=ROOT, env=env, stdin=subprocess.DEVNULL,
                                       stdout=self._log, stderr=subprocess.STDOUT)
         theirs.close()

@@ -6,6 +6,7 @@ names its exit status."""
 from __future__ import annotations
 
 import json
+import sys
 
 import pytest
 
@@ -67,3 +68,49 @@ def test_a_run_that_fails_before_its_first_frame_leaves_no_folder(tmp_path, monk
             run(load_scene("tet_cut_31"), RunOptions(out=out, frames=2, renderer="raster", video="gif", width=32,
                                                      height=24, progress=False, draw_process=separate))
         assert not out.exists()
+
+
+SPY = """
+import json, os, sys
+import taichi.lang.kernel_impl as kernel_impl
+import render.draw_process as draw_process
+
+compiled, phase = [], ["start"]
+materialize = kernel_impl.Kernel.materialize
+
+def spy(self, key=None, args=None, arg_features=None):
+    if key is None or key not in self.compiled_kernels:
+        compiled.append((phase[0], self.func.__qualname__))
+    return materialize(self, key, args, arg_features)
+
+kernel_impl.Kernel.materialize = spy
+handle = draw_process._Drawer.handle
+
+def handled(self, what, data):
+    out = handle(self, what, data)
+    if out == "drawn":
+        phase[0] = "later"
+    return out
+
+draw_process._Drawer.handle = handled
+code = draw_process.serve(int(sys.argv[1]))
+with open(os.environ["SPY_OUT"], "w") as f:
+    json.dump(compiled, f)
+sys.exit(code)
+"""
+
+
+def test_the_drawing_process_compiles_nothing_after_its_first_frame(tmp_path, monkeypatch):
+    """Issue 16 item 2 for the drawing process: its kernels compile by its first frame (the warm-up
+    render while the simulation steps); glass_r3's event, changed surfaces and debris come later."""
+    import render.draw_process as draw_process
+
+    monkeypatch.setattr(draw_process, "COMMAND", [sys.executable, "-c", SPY])
+    monkeypatch.setenv("SPY_OUT", str(tmp_path / "compiled.json"))
+    stats = run(load_scene("glass_r3"), RunOptions(out=tmp_path / "g", frames=FRAMES, renderer="raster", video="none",
+                                                   width=96, height=72, progress=False))
+    assert stats["events"] and stats["table1"]["pieces"]["debris"] > 0
+    compiled = json.loads((tmp_path / "compiled.json").read_text())
+    assert any(phase == "start" for phase, _ in compiled)  # the spy sees compiles
+    late = [name for phase, name in compiled if phase == "later"]
+    assert late == [], late
