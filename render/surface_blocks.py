@@ -81,6 +81,10 @@ class SurfaceCache:
         """`apply` to what changed in `world` since the last update."""
         return self.apply(surface_changes(world, {b: v[0] for b, v in self._bodies.items()}))
 
+    def body_ids(self):
+        """The bodies whose meshes are held."""
+        return self._bodies.keys()
+
     def body_mesh(self, body: int) -> tuple:
         """(stamp, verts (V, 3) m reference frame, faces (F, 3), face ids) of a live body after `update`."""
         return self._bodies[body][:4]
@@ -127,24 +131,17 @@ class SurfaceBlocks:
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self._surfaces = SurfaceCache()
         self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
-        self._stamps: dict[int, int] = {}  # body -> the stamp of the surface block the scene holds
 
     def apply(self, changes: SurfaceChanges, scene) -> None:
         """Write the blocks of the bodies a fracture changed or made, drop those of bodies gone."""
         if changes.looks is not None:
             self.looks = changes.looks
-        bodies = self._surfaces.apply(changes)
-        live = set(bodies)
-        gone = [b for b in self._stamps if b not in live]
+        held = list(self._surfaces.body_ids())  # the bodies whose blocks the scene holds
+        live = set(self._surfaces.apply(changes))
+        gone = [b for b in held if b not in live]
         for b in gone:
-            del self._stamps[b]
             self._ribbons.pop(b, None)
-        changed = {}
-        for b in bodies:
-            stamp = self._surfaces.body_mesh(b)[0]
-            if self._stamps.get(b) != stamp:
-                changed[b] = self._body_parts(b)
-                self._stamps[b] = stamp
+        changed = {b: self._body_parts(b) for b in changes.changed}  # new stamps: new blocks
         scene.update_surfaces(changed, drop=gone)
 
     def outer_faces(self, face_id: np.ndarray, verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
