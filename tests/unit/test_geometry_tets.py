@@ -166,3 +166,28 @@ def test_resolution_budget_is_refused_with_the_allowed_range():
 
     with pytest.raises(ConfigError, match="resolution"):
         tetrahedralize(Box((1.0, 1.0, 1.0)), 1e-4)
+
+
+def test_boundary_spheres_of_many_bodies_at_once_equal_each_body_alone(pot_particles):
+    """geometry/boundary.py groups every body in one pass (one tree, one grouping): each body gets the
+    spheres it gets alone, including a body of one surface particle and bodies whose spheres are
+    pulled inside or put on a chip's corners."""
+    from rigid.bodies import boundary_spheres
+
+    _, ps = pot_particles
+    ids = np.flatnonzero(ps.alive)
+    c = ps.centroid[ids]
+    labels = (c[:, 0] > 0).astype(np.int64) + 2 * (c[:, 2] > 0) + 4 * (c[:, 1] > np.median(c[:, 1]))
+    labels[np.argmin(c[:, 1])] = 8  # a piece of one particle
+    together = boundary_spheres(ps, ids, labels, 4)
+    for b in range(9):
+        alone = boundary_spheres(ps, ids[labels == b], np.zeros(int((labels == b).sum()), np.int64), 4)
+        mine = np.flatnonzero(together.body == b)
+        assert len(mine) == len(alone) > 0
+        np.testing.assert_array_equal(together.position[mine], alone.position)
+        np.testing.assert_array_equal(together.radius[mine], alone.radius)
+        np.testing.assert_array_equal(together.mass[mine], alone.mass)
+        members = [ids[together.members[together.member_start[s]:together.member_start[s + 1]]] for s in mine]
+        want = [ids[labels == b][alone.members[alone.member_start[s]:alone.member_start[s + 1]]]
+                for s in range(len(alone))]
+        assert all(np.array_equal(m, w) for m, w in zip(members, want))
