@@ -12,8 +12,7 @@ sphere covers every member: max |x_k - c| + r_k. Ties among equally near candida
 scipy's k-d tree order.
 
 Every body is grouped in one pass: the fragments of a split are tens of bodies, and one tree, one
-query and one grouping kernel for all of them cost what one body's did (the same groups as a pass
-per body, tested). Pots' first 61 frames: 1.9 -> 1.4 s.
+query and one grouping kernel serve them all (the same groups as a pass per body, tested).
 
 Departure from the paper (docs/decisions.md): with the members' free faces given, the sphere's
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
@@ -87,7 +86,7 @@ def _candidates(points, rad, body_of, k, reach):
     bound = reach * float(rad.max()) * (1.0 + 1e-9)
     dist, near = cKDTree(p4).query(p4, k=k, workers=workers, distance_upper_bound=bound)
     dist, near = dist.reshape(len(points), k), near.reshape(len(points), k)
-    near = np.minimum(near, len(points) - 1)  # k beyond every row: a row index for "none"
+    near = np.minimum(near, len(points) - 1)  # a missing neighbour comes as len(points): any row, not ok
     ok = (body_of[near] == body_of[:, None]) & (dist <= reach * np.maximum(rad[:, None], rad[near]))
     return near, ok
 
@@ -191,7 +190,7 @@ def free_face_normals(rest_verts: np.ndarray, free_faces: np.ndarray, centroid: 
     depth[p, f] = np.einsum("fk,fk->f", n, tri[:, 0] - centroid[p])
     count = len(free_faces)
     normal_sum = np.stack([np.bincount(p, weights=n[:, a], minlength=count) for a in range(3)], 1)
-    return normal_sum, np.where(free_faces, depth, 0.0).max(1)
+    return normal_sum, depth.max(1)
 
 
 def _pull_inside(c, rad, g, x, rest_verts, free_faces):
