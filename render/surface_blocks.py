@@ -130,7 +130,7 @@ class SurfaceBlocks:
         self._line_width, self._line_lift = line_width, line_lift
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
         self._surfaces = SurfaceCache()
-        self._ribbons: dict[int, tuple] = {}  # body -> (stamp, verts, faces, the outer face of each triangle)
+        self._ribbons: dict[int, tuple] = {}  # body -> its crack lines' (verts, faces, the face each lies on)
 
     def apply(self, changes: SurfaceChanges, scene) -> None:
         """Write the blocks of the bodies a fracture changed or made, drop those of bodies gone."""
@@ -162,7 +162,7 @@ class SurfaceBlocks:
     def _body_parts(self, body: int) -> list[MeshPart]:
         """A body's surface block: one part per material (its roughness and opacity), faces coloured by
         look and crack, and its crack lines."""
-        stamp, v, f, fid = self._surfaces.body_mesh(body)
+        _, v, f, fid = self._surfaces.body_mesh(body)
         mat = self._surfaces.body_face_material(body)
         outer = self.outer_faces(fid, v, f)
         if self.colors == "fragments":
@@ -179,10 +179,8 @@ class SurfaceBlocks:
             parts.append(MeshPart(v, f[sel], body=body, colors=color[sel], color_per="face",
                                   roughness=look.roughness, opacity=look.opacity))
         if self.crack_lines:
-            hit = self._ribbons.get(body)
-            if hit is None or hit[0] != stamp:
-                hit = self._ribbons[body] = (stamp, *ribbons(v, f, outer, self._line_width, self._line_lift))
-            _, rv, rf, on_face = hit
+            # made anew: blocks are only rebuilt for a body whose surface changed
+            rv, rf, on_face = self._ribbons[body] = ribbons(v, f, outer, self._line_width, self._line_lift)
             if len(rf):
                 if self.colors == "fragments":  # light palette colours: the dark line
                     line = np.broadcast_to(LINE_DARK, (len(rf), 3))

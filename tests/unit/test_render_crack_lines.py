@@ -119,7 +119,7 @@ def test_each_half_of_a_cut_box_has_the_section_as_rim(split):
     world, (view, _) = split
     assert world.fragment_count() == 2
     assert sorted(view.blocks._ribbons) == sorted(world.bodies)
-    for body, (_, rv, _, _) in view.blocks._ribbons.items():
+    for body, (rv, _, _) in view.blocks._ribbons.items():
         a, b = rv[0::4], rv[1::4]  # each quad starts with its rim edge (lifted)
         assert np.linalg.norm(b - a, axis=1).sum() == pytest.approx(0.4, rel=1e-9)
         assert np.abs(a[:, 0]).max() < 1e-9 and np.abs(rv[:, 0]).max() <= view.blocks._line_width + 1e-9
