@@ -355,16 +355,20 @@ class RigidWorld(HostSync):
         st = state or self._download_bodies(self._nb)
         if self._ns == 0:
             return np.zeros(0, np.int64)
-        xw = self.sphere_world(st)
         mine = np.isin(self._sph_body, ids)
         if not mine.any():
             return np.zeros(0, np.int64)
         if pad is None:
             pad = 2.0 * float(self._sph_radius.max()) + self.config.speculative_margin_m
-        lo = (xw[mine] - self._sph_radius[mine, None]).min(0) - pad
-        hi = (xw[mine] + self._sph_radius[mine, None]).max(0) + pad
-        near = np.all((xw >= lo) & (xw <= hi), axis=1) & ~mine
-        woken = np.unique(self._sph_body[near]).astype(np.int64)
+        xm = self.sphere_world(st, np.flatnonzero(mine))
+        lo = (xm - self._sph_radius[mine, None]).min(0) - pad
+        hi = (xm + self._sph_radius[mine, None]).max(0) + pad
+        # a sphere centre in the box needs its body's bounding sphere to reach it: the others' are not placed
+        gap = np.linalg.norm(np.maximum(np.maximum(lo - st.x[: self._nb], st.x[: self._nb] - hi), 0.0), axis=1)
+        candidate = np.flatnonzero((gap <= self.body_reach() * (1.0 + 1e-6) + 1e-9)[self._sph_body] & ~mine)
+        xw = self.sphere_world(st, candidate)
+        near = np.all((xw >= lo) & (xw <= hi), axis=1)
+        woken = np.unique(self._sph_body[candidate[near]]).astype(np.int64)
         self.wake(woken)
         return woken
 

@@ -170,3 +170,29 @@ def test_a_bodys_spheres_keep_consecutive_ids(taichi_runtime):
             assert end[b] == ids[-1] + 1
     finally:
         w.release()
+
+
+def test_wake_near_finds_every_body_with_a_sphere_in_the_box(fresh):
+    """`wake_near` places only the spheres of bodies whose bounding sphere reaches the removed body's
+    padded box: the bodies it finds are those a placement of every sphere finds, for rotated boxes
+    scattered round the one removed (some just inside the box, some just outside)."""
+    from rigid.bodies import add_box_body
+
+    rng = np.random.default_rng(3)
+    ids = []
+    for k in range(12):
+        axis = rng.normal(size=3)
+        q = quat_from_axis_angle(axis / np.linalg.norm(axis), float(rng.uniform(0.0, math.pi)))
+        x = (0.0, 0.5, 0.0) if k == 0 else rng.uniform([-0.6, 0.1, -0.6], [0.6, 0.9, 0.6])
+        ids.append(add_box_body(fresh, (0.08, 0.03, 0.05), 1000.0, x=x, q=q))
+    pad = 0.15
+    for struck in ids[:4]:
+        xw = fresh.sphere_world()
+        body = fresh._sph_body
+        mine = body == struck
+        r = fresh._sph_radius
+        lo, hi = (xw[mine] - r[mine, None]).min(0) - pad, (xw[mine] + r[mine, None]).max(0) + pad
+        inside = np.all((xw >= lo) & (xw <= hi), axis=1) & ~mine
+        want = np.unique(body[inside])
+        assert 0 < len(want) < len(ids) - 1  # the case has bodies on both sides of the box
+        np.testing.assert_array_equal(fresh.wake_near([struck], pad=pad), want)
