@@ -170,8 +170,8 @@ def test_resolution_budget_is_refused_with_the_allowed_range():
 
 def test_boundary_spheres_of_many_bodies_at_once_equal_each_body_alone(pot_particles):
     """geometry/boundary.py groups every body in one pass (one tree, one grouping): each body gets the
-    spheres it gets alone, including a body of one surface particle and bodies whose spheres are
-    pulled inside or put on a chip's corners."""
+    spheres it gets alone (pulled inside the surface, as a split makes them), a body of one surface
+    particle included."""
     from rigid.bodies import boundary_spheres
 
     _, ps = pot_particles

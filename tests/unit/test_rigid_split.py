@@ -175,7 +175,7 @@ def test_a_bodys_spheres_keep_consecutive_ids(taichi_runtime):
 def test_wake_near_finds_every_body_with_a_sphere_in_the_box(fresh):
     """`wake_near` places only the spheres of bodies whose bounding sphere reaches the removed body's
     padded box: the bodies it finds are those a placement of every sphere finds, for rotated boxes
-    scattered round the one removed (some just inside the box, some just outside)."""
+    scattered round the one removed (some inside the box, some outside)."""
     from rigid.bodies import add_box_body
 
     rng = np.random.default_rng(3)
