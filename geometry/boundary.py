@@ -128,10 +128,10 @@ def build_boundary_particles(
     gid = greedy_groups(order, near, ok, group_size, 0)[0]  # bodies in turn: ids count up body by body
     members = rows[np.argsort(gid, kind="stable")]
     g = np.sort(gid)
-    c, rad, msum, _ = _group_spheres(g, centroid[members], radius[members], mass[members])
+    start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)  # every group id has members
+    c, rad, msum = _group_spheres(g, start, centroid[members], radius[members], mass[members])
     if rest_verts is not None and free_faces is not None:
-        c = _pull_inside(c, rad, g, centroid[members], rest_verts[members], free_faces[members])
-    start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)
+        c = _pull_inside(c, rad, g, start, centroid[members], rest_verts[members], free_faces[members])
     out = BoundaryParticles(
         position=c,
         radius=rad,
@@ -193,7 +193,7 @@ def free_face_normals(rest_verts: np.ndarray, free_faces: np.ndarray, centroid: 
     return normal_sum, depth.max(1)
 
 
-def _pull_inside(c, rad, g, x, rest_verts, free_faces):
+def _pull_inside(c, rad, g, start, x, rest_verts, free_faces):
     normal_sum, depth = free_face_normals(rest_verts, free_faces, x)
     ng = len(c)
     n = np.stack([np.bincount(g, weights=normal_sum[:, a], minlength=ng) for a in range(3)], 1)
@@ -201,20 +201,20 @@ def _pull_inside(c, rad, g, x, rest_verts, free_faces):
     ok = norm[:, 0] > 1e-12
     n = np.where(ok[:, None], n / np.maximum(norm, 1e-300), 0.0)
     # distance from the centre to the surface along the group's normal
-    first = np.r_[0, np.flatnonzero(np.diff(g)) + 1]  # g is sorted and every group has members
-    reach = np.maximum.reduceat(np.einsum("ij,ij->i", n[g], x - c[g]) + depth, first)
+    reach = np.maximum.reduceat(np.einsum("ij,ij->i", n[g], x - c[g]) + depth, start[:-1])
     # a one-particle sphere is the particle itself (it protrudes by about 0.1 tet edge): kept as is
-    single = np.bincount(g, minlength=ng) == 1
+    single = np.diff(start) == 1
     shift = np.where(ok & ~single, np.maximum(rad - reach, 0.0), 0.0)
     return c - shift[:, None] * n
 
 
-def _group_spheres(gid: np.ndarray, x: np.ndarray, r: np.ndarray, w: np.ndarray):
-    ng = int(gid.max()) + 1
-    count = np.bincount(gid, minlength=ng).astype(np.float64)
+def _group_spheres(gid: np.ndarray, start: np.ndarray, x: np.ndarray, r: np.ndarray, w: np.ndarray):
+    """Centres, radii and masses of the groups `gid` (sorted; group k's rows start[k]:start[k + 1])."""
+    ng = len(start) - 1
+    count = np.diff(start).astype(np.float64)
     wsum = np.bincount(gid, weights=w, minlength=ng)
     # mean position (the paper's "average position"), equal weights
     c = np.stack([np.bincount(gid, weights=x[:, a], minlength=ng) for a in range(3)], 1) / count[:, None]
     reach = np.linalg.norm(x - c[gid], axis=1) + r
-    rad = np.maximum(np.maximum.reduceat(reach, np.r_[0, np.flatnonzero(np.diff(gid)) + 1]), 0.0)
-    return c, rad, wsum, count
+    rad = np.maximum(np.maximum.reduceat(reach, start[:-1]), 0.0)
+    return c, rad, wsum
