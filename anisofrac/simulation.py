@@ -75,13 +75,16 @@ class Simulation:
 
     `with anisofrac.load("pot") as sim: ...` frees its Taichi fields at the end (or call `close()`)."""
 
-    def __init__(self, config, seed: int | None = None) -> None:
+    def __init__(self, config, seed: int | None = None, warm_events: bool = True) -> None:
+        """warm_events=False: the kernels only fracture events launch compile at the first step instead
+        of here (sim.world.World.warm_events; `main.py run` has them compile once the drawing process
+        has its scene)."""
         from core.runtime import ensure_runtime
         from sim.world import World
 
         ensure_runtime()
         self.config = config  # scenes.config.SceneConfig: the validated scene (read it, do not change it)
-        self.world = World(config, seed)
+        self.world = World(config, seed, warm_events)
         self._views: dict = {}
 
     # ------------------------------------------------------------------ time

@@ -180,6 +180,7 @@ def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart
             renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, start.out, opts.video,
                                        opts.colors, opts.crack_lines, drawing=start.drawing)
             print(renderer.description, file=sys.stderr)
+        world.warm_events()  # after the drawing process has its scene: it builds it meanwhile
     except BaseException:
         start.abandon()
         if own and world is not None:

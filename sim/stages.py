@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from core.errors import ConfigError
+
 SUBSTEP, FRAME, EVENT = "substep", "frame", "event"
 
 
@@ -58,3 +60,18 @@ def build_stages(effects: list[str], fracture_mode: str | None) -> list[Stage]:
     names = [s.name for s in stages]
     assert names == sorted(names, key=ORDER.index), names  # the fixed order of one frame
     return stages
+
+
+def fracture_mode(cfg) -> str:
+    """The scene's fracture mode, 'auto' resolved: subdivision where the effect is on, else basic."""
+    mode = cfg.scene.fracture_mode
+    if mode == "auto":
+        return "subdivision" if cfg.has("subdivision") else "basic"
+    if mode == "subdivision" and not cfg.has("subdivision"):
+        raise ConfigError("scene.fracture_mode", mode, "'basic' unless 'subdivision' is in scene.effects", cfg.source)
+    return mode
+
+
+def stage_list(cfg) -> list[str]:
+    """The names of the stages a scene (scenes.config.SceneConfig) builds, in frame order."""
+    return [st.name for st in build_stages(cfg.scene.effects, fracture_mode(cfg) if cfg.has("fracture") else None)]

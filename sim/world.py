@@ -27,7 +27,7 @@ from scenes.config import SceneConfig
 from scenes.loader import resolve_mesh_path
 from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
-from sim.stages import FRAME, SUBSTEP, build_stages
+from sim.stages import FRAME, SUBSTEP, build_stages, fracture_mode
 from sim.timers import StageTimers
 from sph.materials import oriented
 
@@ -44,24 +44,10 @@ def euler_xyz_deg(angles) -> np.ndarray:
     return rz @ ry @ rx
 
 
-def stage_list(cfg: SceneConfig) -> list[str]:
-    """The names of the stages a scene builds, in frame order (sim/stages.py)."""
-    return [st.name for st in build_stages(cfg.scene.effects, fracture_mode(cfg) if cfg.has("fracture") else None)]
-
-
-def fracture_mode(cfg: SceneConfig) -> str:
-    mode = cfg.scene.fracture_mode
-    if mode == "auto":
-        return "subdivision" if cfg.has("subdivision") else "basic"
-    if mode == "subdivision" and not cfg.has("subdivision"):
-        raise ConfigError("scene.fracture_mode", mode, "'basic' unless 'subdivision' is in scene.effects", cfg.source)
-    return mode
-
-
 class World:
     """A scene, built: particles, bodies and the stages its effects name."""
 
-    def __init__(self, cfg: SceneConfig, seed: int | None = None) -> None:
+    def __init__(self, cfg: SceneConfig, seed: int | None = None, warm_events: bool = True) -> None:
         check_scene(cfg)
         if cfg.has("elastic") and cfg.has("rigid"):
             raise ConfigError(
@@ -105,12 +91,24 @@ class World:
         self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
         self.store = ParticleStore(*self._input)
         self._input = None
-        if cfg.has("fracture"):
+        self._events_warm = not cfg.has("fracture")  # warm_events has run (or there are no events)
+        self.build_seconds = time.perf_counter() - t0
+        if warm_events:
+            self.warm_events()
+        check_time_step(self)
+
+    def warm_events(self) -> None:
+        """Compile and load what the first fracture event would wait for (sim.fracture_stage.prepare),
+        once: at the end of the build, or where the World was built with warm_events=False, when the
+        caller says (sim/run.py: once the drawing process has the scene to build meanwhile) and at the
+        latest before the first frame. Its time counts in build_seconds."""
+        if not self._events_warm:
             from sim.fracture_stage import prepare
 
+            t0 = time.perf_counter()
             prepare(self)
-        self.build_seconds = time.perf_counter() - t0
-        check_time_step(self)
+            self._events_warm = True
+            self.build_seconds += time.perf_counter() - t0
 
     @property
     def particles(self) -> ParticleSet:
@@ -319,6 +317,7 @@ class World:
     # ------------------------------------------------------------------ stepping
     def step_frame(self) -> None:
         """Advance one frame: substeps of the enabled stages, then fracture events."""
+        self.warm_events()
         check_state(self, when="start")
         sc = self.cfg.scene
         impacts: dict[int, dict] = {}

@@ -1,7 +1,8 @@
 """No compile stall after start-up (issue 16, item 2): in a fresh process, once the World is built
 and its first frame has run, a fracture event with shattering, debris and a perforating ball
 compiles no Taichi kernel: the kernels only events and debris launch were compiled and loaded at
-build (sim.fracture_stage.prepare). And a second World of the same scene, after the first was
+build (sim.fracture_stage.prepare), or, for a World built with warm_events=False (`main.py run`),
+before its first frame. And a second World of the same scene, after the first was
 released, compiles nothing at all: released stores go back to core/field_pool.py instead of being
 destroyed (Taichi 1.7.4's SNodeTree.destroy clears every compiled kernel of the program)."""
 
@@ -133,6 +134,29 @@ def test_drawn_frames_compile_no_kernel_after_the_first():
     info = _probe(DRAWN)
     assert info["events"] >= 1 and info["debris"] > 0 and info["drawn_particles"] > 0
     assert info["pose_capacity"] >= info["body_capacity"]
+    late = [name for phase, name in info["compiled"] if phase == "later"]
+    assert late == [], late
+
+
+DEFERRED = SPY + """
+phase = "build"
+w = World(load_scene("glass_r3"), warm_events=False)
+phase = "first frame"
+w.step_frame()
+phase = "later"
+for _ in range(5):
+    w.step_frame()
+print(json.dumps(dict(compiled=compiled, events=len(w.events))))
+"""
+
+
+def test_event_kernels_left_out_of_the_build_compile_before_the_first_frame():
+    """`main.py run` builds with warm_events=False, so that the drawing process gets its scene sooner;
+    the event kernels then compile at the first frame (or when the run says), never at an event."""
+    info = _probe(DEFERRED)
+    assert info["events"] >= 1
+    when = {name: phase for phase, name in reversed(info["compiled"])}  # each kernel's first compile
+    assert when["_k_copy_store"] == "first frame"  # an event-only kernel (the store's growth)
     late = [name for phase, name in info["compiled"] if phase == "later"]
     assert late == [], late
 

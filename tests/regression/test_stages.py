@@ -9,8 +9,8 @@ import pytest
 import geometry.fragments
 import sph.kernel
 from scenes.loader import load_scene, scene_from_dict
-from sim.stages import CATALOGUE, ORDER, build_stages
-from sim.world import World, stage_list
+from sim.stages import CATALOGUE, ORDER, build_stages, stage_list
+from sim.world import World
 
 PAPER = {
     "pot": ["rigid", "debris", "fracture.events", "fracture.analysis", "fracture.subdivision", "fracture.shatter",
