@@ -37,6 +37,9 @@ def test_summary_figures_are_the_runs_own():
     assert r["fps_average"] == pytest.approx(20 / 2.35)
     assert r["longest_ms"] == 100.0  # after the first frame
     assert r["first_frame_s"] == pytest.approx(1.9) and r["peak_mb"] == 321.0
+    later = [stats([2500.0, 10.0], []), stats([1500.0, 10.0], [])]  # two more launches: 3.5 s and 2.5 s
+    median = bs.summarise("pot", stats(frame_ms, ev), stats([10.0] * 20, []), later)["first_frame_s"]
+    assert median == pytest.approx(2.5)  # of 1.9, 3.5 and 2.5 s
     row = bs.table([r]).splitlines()[2]
     assert row.startswith("| pot | 20 | 2 | 6.0 (86) | 10.0 (2,869) | 17.0 (1,505) | 39.5 (70) |")
     assert bs.counts_table([r]).splitlines()[2] == "| pot | 7 (4 / 1 / 2) | 14 | 0.50x | yes |"
