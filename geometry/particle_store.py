@@ -23,6 +23,8 @@ store existed: tested with the scenes' state hashes). No `from __future__ import
 Taichi reads the kernels' annotations as objects.
 """
 
+import functools
+
 import numpy as np
 import taichi as ti
 
@@ -32,7 +34,7 @@ GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the hos
 MIN_CAPACITY = 64  # rows: the smallest store
 # rows per particle built: subdivision's children at the end of the paper scenes' runs make 2.2 (pot)
 # to 2.7 (glass_r3) rows per physical particle, so the store starts with room for that; Pots' grains
-# outgrow it (4.0 rows), and growing doubles it with a device copy whose kernels warm_kernels compiled
+# outgrow it (4.0 rows), and growing doubles it with a device copy whose kernels warm_pieces compiles
 HEADROOM = 4
 
 Arr = ti.types.ndarray()
@@ -376,22 +378,21 @@ class ParticleStore:
         self._changed(np.unique(ps.body[ps.alive & (ps.body >= 0)]))
         return global_id
 
-    def warm_kernels(self) -> None:
-        """Launch every kernel of an event and of a frame after it once on nothing (issue 16: no
-        compile after the build), growth and compaction included: HEADROOM x the particles does not
-        hold every run (Pots' grains outgrew it at frame 40, and compiling the copy for its five
-        column types stalled that frame 190 ms). Changes nothing: the host copy stays valid."""
-        version, host = self.version, self._host
-        ids, ps, G, rows = self.take_bodies([])
-        self.put_body(ids, ps, G, rows)
-        self.take_mass(np.zeros(0, np.int64))
-        self.first_invalid()
-        self.body_totals(1)
-        for column in {(a.dtype, len(a.shape)): a for a in self._columns() + [self.link_extra]}.values():
-            _k_copy_store(0, column, column)  # one compile per dtype and rank; copies no row
-        _k_compact_extra(0, self.link_extra, self.link_extra_alive)
-        self.transfers.clear()
-        self.version, self._host = version, host
+    def warm_pieces(self) -> list:
+        """Launchers of every kernel of an event and a frame after it, growth and compaction included (Pots'
+        grains outgrow HEADROOM: compiling the copy stalled a frame 190 ms), each on nothing and changing
+        nothing (the host copy and `transfers` stay): sim/warm_up.py runs them (issue 16)."""
+        columns = {(a.dtype, len(a.shape)): a for a in self._columns() + [self.link_extra]}.values()
+        launches = [lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
+                    self.first_invalid, lambda: self.body_totals(1),
+                    *(functools.partial(_k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
+                    lambda: _k_compact_extra(0, self.link_extra, self.link_extra_alive)]
+        return [functools.partial(self._unchanged, f) for f in launches]
+
+    def _unchanged(self, launch) -> None:
+        version, host, logged = self.version, self._host, len(self.transfers)
+        launch()
+        self.version, self._host, self.transfers[logged:] = version, host, []
 
     def global_ids(self, ids: np.ndarray, n_local: int) -> np.ndarray:
         """(n_local,) store id of every row of a local set taken as `ids`: the gathered rows keep

@@ -140,6 +140,7 @@ class DrawingProcess:
         self.description = None
         self.report: dict = {}
         self.sent = self.drawn = 0  # frames asked for, frames written
+        self.idle_work = None  # () -> bool: one piece of work to do while waiting for a frame (False: none left)
         self.failed = False  # its error was raised already
         ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
         self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
@@ -190,10 +191,13 @@ class DrawingProcess:
 
     def draw(self) -> None:
         """Draw and write a frame of the scene as the calls so far left it; waits while the drawing
-        process is more than FRAMES_AHEAD frames behind (a frame's wall time then counts its drawing)."""
+        process is more than FRAMES_AHEAD frames behind (a frame's wall time then counts its drawing),
+        doing `idle_work` meanwhile where there is some."""
         self.send("draw")
         self.sent += 1
         while self.sent - self.drawn > FRAMES_AHEAD:
+            if self.idle_work is not None and not self._conn.poll() and self.idle_work():
+                continue  # did a piece while the drawing process was busy
             self._receive()
 
     def close(self) -> dict:

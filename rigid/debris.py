@@ -231,17 +231,15 @@ class DebrisStore:
         self._a._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
         self.count += k
 
-    def warm_kernels(self) -> None:
-        """Compile and load every kernel the store launches once debris exists, and the field copies
-        of `state`, by launching each on zero entries, so that the first shattering event does
-        not wait for them."""
+    def warm_pieces(self) -> list:
+        """Launchers of every kernel the store launches once debris exists, and of the field copies of
+        `state`, each on zero entries, so that the first shattering event does not wait for them
+        (sim/warm_up.py runs them)."""
         fdt = numpy_float()
         i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
-        self._a._k_append(0, 0, f3, f3, f1, i1)
-        self._a._k_step(0, self.n_colliders, 0.0, self.gravity)
-        self._a._k_set_v(0, i1, f3)
-        self._a._k_max_speed(0)
-        self.state()
+        return [lambda: self._a._k_append(0, 0, f3, f3, f1, i1),
+                lambda: self._a._k_step(0, self.n_colliders, 0.0, self.gravity),
+                lambda: self._a._k_set_v(0, i1, f3), lambda: self._a._k_max_speed(0), self.state]
 
     def set_velocities(self, index, v) -> None:
         """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping

@@ -47,24 +47,27 @@ class HostSync:
             self._reach = (self._sph_body, reach)
         return self._reach[1]
 
-    def warm_event_kernels(self) -> None:
-        """Compile and load the copies a fracture event makes (contact and warm-start downloads,
-        body-state writes, wake-ups) by launching each on nothing (zero counts; the body-state
-        write on a free slot, with the zeros it holds), so that the first event is as fast as the
-        later ones: Taichi loads a kernel's cached code at its first launch (10-25 ms each)."""
+    def warm_event_pieces(self) -> list:
+        """Launchers of the copies a fracture event makes (contact and warm-start downloads, wake-ups,
+        body-state writes), each launching one on nothing (zero counts; the body-state write on a free
+        slot, with the zeros it holds), so that the first event is as fast as the later ones: Taichi
+        loads a kernel's cached code at its first launch (10-25 ms each). sim/warm_up.py runs them."""
         from core.compile import precompile
 
         fdt = numpy_float()
         i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
-        transfers.k_download_contacts(self._s, 0, i1, i1, i1, i1, f3, f3, f1, f1, f1)
-        transfers.k_download_prev(self._s, 0, 0, i1, f1, f3, i1)
-        transfers.k_wake(self._s, i1, 0)
         v3, v4 = np.zeros(3, fdt), np.zeros(4, fdt)
-        free = self._s.cap_bodies - 1
-        if free >= self._nb:
-            transfers.k_set_body_state(self._s, free, v3, v4, v3, v3, 0, 0)
-        else:
-            precompile(transfers.k_set_body_state, self._s, 0, v3, v4, v3, v3, 0, 0)
+
+        def set_state() -> None:
+            free = self._s.cap_bodies - 1  # read when it runs: bodies may have been added since
+            if free >= self._nb:
+                transfers.k_set_body_state(self._s, free, v3, v4, v3, v3, 0, 0)
+            else:
+                precompile(transfers.k_set_body_state, self._s, 0, v3, v4, v3, v3, 0, 0)
+
+        return [lambda: transfers.k_download_contacts(self._s, 0, i1, i1, i1, i1, f3, f3, f1, f1, f1),
+                lambda: transfers.k_download_prev(self._s, 0, 0, i1, f1, f3, i1),
+                lambda: transfers.k_wake(self._s, i1, 0), set_state]
 
     def _upload_bodies(self, start: int, n: int, state: BodyState, offset: int = 0) -> None:
         """Write bodies [start, start + n) from the host mirror and `state` rows [offset, offset + n)."""

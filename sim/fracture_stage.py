@@ -44,19 +44,23 @@ def take_body(world, body: int) -> TakenBody:
     return TakenBody(*world.store.take_bodies([body]))
 
 
-def prepare(world) -> None:
-    """At build, what the first fracture event would otherwise wait for (issue 16: the first event
-    is as fast as the tenth): the event's modules and libraries (55 ms of imports for the pot), and
-    the kernels that only events and debris launch, launched once on nothing."""
+def warm_pieces(world) -> list:
+    """What the first fracture event would otherwise wait for (issue 16: the first event is as fast as
+    the tenth), as pieces of one kernel or a few each: the event's modules and libraries (55 ms of
+    imports for the pot), and the kernels that only events and debris launch, launched on nothing.
+    sim/warm_up.py runs them, at the build or spread over the frames before the first contact."""
     import importlib
 
-    for module in ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation", "scipy.spatial"):
-        importlib.import_module(module)
-    world.store.warm_kernels()
+    def imports() -> None:
+        for module in ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation", "scipy.spatial"):
+            importlib.import_module(module)
+
+    pieces = [imports, *world.store.warm_pieces()]
     if "rigid" in world.stages:
-        world.rigid.warm_event_kernels()
+        pieces += world.rigid.warm_event_pieces()
     if "debris" in world.stages:
-        world.debris.warm_kernels()
+        pieces += world.debris.warm_pieces()
+    return pieces
 
 
 def _to_reference(world, body: int, point: np.ndarray, normal: np.ndarray, state=None):

@@ -180,7 +180,10 @@ def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart
             renderer = HeadlessSession(world, opts.renderer, opts.width, opts.height, start.out, opts.video,
                                        opts.colors, opts.crack_lines, drawing=start.drawing)
             print(renderer.description, file=sys.stderr)
-        world.warm_events()  # after the drawing process has its scene: it builds it meanwhile
+        if start.drawing is not None and world.warm_up is not None:
+            # event kernels compile while the simulation waits for the drawing process (sim/warm_up.py)
+            start.drawing.idle_work = world.warm_up.run_one
+            world.warm_up.idle = True
     except BaseException:
         start.abandon()
         if own and world is not None:
@@ -243,6 +246,8 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None, start: RunStart | None =
         if renderer is not None:
             renderer.close()
             first_frame_unix = renderer.report.get("first_frame_unix", first_frame_unix)
+        if world.warm_up is not None:
+            world.warm_up.idle = False  # a World stepped on after the run (the API's) has no waits to use
         wall = time.perf_counter() - t0  # the drawing process's last frames included
         stats = collect_stats(world, wall, done, interrupted, frame_wall_ms, first_frame_unix)
         if renderer is not None and renderer.report:

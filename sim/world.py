@@ -91,24 +91,20 @@ class World:
         self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
         self.store = ParticleStore(*self._input)
         self._input = None
-        self._events_warm = not cfg.has("fracture")  # warm_events has run (or there are no events)
-        self.build_seconds = time.perf_counter() - t0
+        self.warm_up = None  # sim.warm_up.EventWarmUp: the kernels only events launch, when they compile
+        if cfg.has("fracture"):
+            from sim.warm_up import EventWarmUp
+
+            self.warm_up = EventWarmUp(self)
         if warm_events:
             self.warm_events()
+        self.build_seconds = time.perf_counter() - t0
         check_time_step(self)
 
     def warm_events(self) -> None:
-        """Compile and load what the first fracture event would wait for (sim.fracture_stage.prepare),
-        once: at the end of the build, or where the World was built with warm_events=False, when the
-        caller says (sim/run.py: once the drawing process has the scene to build meanwhile) and at the
-        latest before the first frame. Its time counts in build_seconds."""
-        if not self._events_warm:
-            from sim.fracture_stage import prepare
-
-            t0 = time.perf_counter()
-            prepare(self)
-            self._events_warm = True
-            self.build_seconds += time.perf_counter() - t0
+        """Compile what the first fracture event would wait for, all that is left of it (sim/warm_up.py)."""
+        if self.warm_up is not None:
+            self.warm_up.run_all()
 
     @property
     def particles(self) -> ParticleSet:
@@ -317,7 +313,8 @@ class World:
     # ------------------------------------------------------------------ stepping
     def step_frame(self) -> None:
         """Advance one frame: substeps of the enabled stages, then fracture events."""
-        self.warm_events()
+        if self.warm_up is not None:
+            self.warm_up.before_frame()
         check_state(self, when="start")
         sc = self.cfg.scene
         impacts: dict[int, dict] = {}
@@ -402,6 +399,7 @@ class World:
         from sim.fracture_stage import fracture_body
         from sim.perforation import perforate
 
+        self.warm_events()  # left for the frames before a contact: all have run (sim/warm_up.py)
         for body in sorted(impacts):
             if body not in self.bodies or not self.rigid.body_state().alive[body]:
                 continue

@@ -161,6 +161,43 @@ def test_event_kernels_left_out_of_the_build_compile_before_the_first_frame():
     assert late == [], late
 
 
+SPREAD = SPY + """
+phase = "build"
+imminent = World(load_scene("glass_r3"), warm_events=False)
+imminent.warm_up.idle = True
+imminent.warm_up.before_frame()  # the ball is launched at the pane: all before the first frame
+left_imminent = len(imminent.warm_up.pieces)
+w = World(load_scene("pot"), warm_events=False)
+w.warm_up.idle = True  # as under a drawing process: one piece in each wait for a frame
+pieces = len(w.warm_up.pieces)
+left, first_event = [], None
+for f in range(40):
+    phase = f"frame {{f}}"
+    w.step_frame()
+    left.append(len(w.warm_up.pieces))
+    if w.events:
+        first_event = f
+        break
+    w.warm_up.run_one()  # the idle time after the frame is drawn
+print(json.dumps(dict(compiled=compiled, left_imminent=left_imminent, pieces=pieces, left=left,
+                      first_event=first_event)))
+"""
+
+
+def test_event_kernels_compile_in_the_idle_frames_before_the_first_contact():
+    """Under a drawing process (`main.py run`), the event kernels compile while the simulation waits
+    for frames to be drawn, none before the first frame, all before the first contact could come
+    (sim/warm_up.py): the event's frame compiles nothing. Where a contact is imminent (glass_r3's
+    ball), all compile before the first frame."""
+    info = _probe(SPREAD)
+    assert info["left_imminent"] == 0
+    assert info["left"][0] == info["pieces"] > 0  # the first frame ran none
+    assert info["first_event"] is not None
+    assert info["left"][info["first_event"] - 1] == 0  # all had run before the frame of the first event
+    event = [name for phase, name in info["compiled"] if phase == f"frame {info['first_event']}"]
+    assert event == [], event
+
+
 def _probe(code: str) -> dict:
     out = subprocess.run([sys.executable, "-c", code.format(root=str(ROOT))], capture_output=True, text=True,
                          timeout=600, cwd=ROOT)

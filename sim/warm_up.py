@@ -1,0 +1,79 @@
+"""When the kernels only fracture events launch are compiled (issue 16: start-up, and the first event
+as fast as the tenth).
+
+Taichi compiles a kernel at its first launch, even from its offline cache (10-25 ms for a small one,
+over 100 ms for the store's gather: docs/decisions.md, session 27), and the kernels only events and
+debris launch (sim.fracture_stage.warm_pieces) take 0.6 s of the pot's start. A World built with
+warm_events=True runs them all at the end of its build. One built with warm_events=False (`main.py
+run`) with a drawing process runs them in the time the simulation waits for it (`run_one` is its
+idle work: the pot's falling frames take 8 ms to step and 45 ms to draw), none before the first frame,
+so that it is drawn sooner, provided the first contact cannot come before SAFETY_FRAMES + 1 frames
+(rigid.first_contact gives a lower bound on its time; a ball launched at a pane: all before the first
+frame, as at the build). Those the idle time has not run by the time the frames left before a contact
+are fewer than them run in those frames, as many a frame as needed. Without idle time they all run
+before the first frame. A fracture event runs any that are left first.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+
+SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possible contact
+
+
+class EventWarmUp:
+    """The warm-up pieces of one World, and when to run them (module doc)."""
+
+    def __init__(self, world) -> None:
+        from sim.fracture_stage import warm_pieces
+
+        self.world = world
+        self.pieces = deque(warm_pieces(world))
+        self.idle = False  # True where a drawing process gives the simulation idle time (run_one)
+
+    def run_one(self) -> bool:
+        """Run the next piece; False when none was left."""
+        if not self.pieces:
+            return False
+        self.pieces.popleft()()
+        return True
+
+    def run_all(self) -> None:
+        while self.run_one():
+            pass
+
+    def before_frame(self) -> None:
+        """At the start of a frame: all that are left, unless idle time runs them and a contact cannot
+        come before SAFETY_FRAMES + 1 frames; then none at the first frame, and later, once the frames
+        left are fewer than the pieces, enough a frame that the rest have run before a contact could."""
+        if not self.pieces:
+            return
+        w = self.world
+        frames = self.frames_to_first_contact() - SAFETY_FRAMES  # this one included
+        n = len(self.pieces)
+        if frames <= 1 or not self.idle:  # a contact could come at once, or no idle time to use: all now
+            t0 = time.perf_counter()
+            self.run_all()
+            if w.frame == 0:  # before the first frame: part of the build, as where the World ran them
+                w.build_seconds += time.perf_counter() - t0
+        elif w.frame > 0 and frames <= n:  # the idle time did not do them all: the rest in the frames left
+            for _ in range(math.ceil(n / frames)):
+                self.run_one()
+
+    def frames_to_first_contact(self) -> float:
+        """Whole frames from now before a contact could be made (a scripted crack counts as one)."""
+        from rigid.first_contact import earliest_contact_s
+
+        w = self.world
+        cracks = [c.frame - w.frame for c in w.cfg.cracks if c.frame >= w.frame]
+        frames = float(min(cracks)) if cracks else math.inf
+        if "rigid" in w.stages:
+            cfg = w.rigid.config
+            t = earliest_contact_s(w.rigid, cfg.gravity, cfg.speculative_margin_m)
+            frames = min(frames, math.floor(t / w.dt_frame) if math.isfinite(t) else math.inf)
+        return frames
+
+
+__all__ = ["EventWarmUp", "SAFETY_FRAMES"]
