@@ -68,7 +68,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                       draw_process=not args.draw_here)
     start = start_run(cfg, opts)  # the output folder, and the drawing process starting beside the build
     try:
-        sim = af.Simulation(cfg, warm_events=False)  # the Python API (docs/api.md); run_headless warms them
+        sim = af.Simulation(cfg, warm_events=False)  # the Python API (docs/api.md); event kernels: sim/warm_up.py
     except BaseException:
         start.abandon()
         raise

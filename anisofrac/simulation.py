@@ -77,8 +77,7 @@ class Simulation:
 
     def __init__(self, config, seed: int | None = None, warm_events: bool = True) -> None:
         """warm_events=False: the kernels only fracture events launch compile at the first step instead
-        of here (sim.world.World.warm_events; `main.py run` has them compile once the drawing process
-        has its scene)."""
+        of here (sim/warm_up.py; `main.py run` has them compile while it waits for drawn frames)."""
         from core.runtime import ensure_runtime
         from sim.world import World
 

@@ -1,8 +1,9 @@
 """No compile stall after start-up (issue 16, item 2): in a fresh process, once the World is built
 and its first frame has run, a fracture event with shattering, debris and a perforating ball
 compiles no Taichi kernel: the kernels only events and debris launch were compiled and loaded at
-build (sim.fracture_stage.prepare), or, for a World built with warm_events=False (`main.py run`),
-before its first frame. And a second World of the same scene, after the first was
+build (sim.fracture_stage.warm_pieces), or, for a World built with warm_events=False (`main.py
+run`), before its first frame or, under a drawing process, in its waits before the first contact
+could come (sim/warm_up.py). And a second World of the same scene, after the first was
 released, compiles nothing at all: released stores go back to core/field_pool.py instead of being
 destroyed (Taichi 1.7.4's SNodeTree.destroy clears every compiled kernel of the program)."""
 
