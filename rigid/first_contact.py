@@ -56,16 +56,13 @@ def earliest_contact_s(world, gravity, margin: float) -> float:
     best = math.inf
     moving = ~static
     if len(x) > 1:
-        d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2) - reach[:, None] - reach[None, :] - margin
-        rel = np.linalg.norm(v[:, None, :] - v[None, :, :], axis=2)
-        both = moving[:, None] & moving[None, :]
-        one = moving[:, None] ^ moving[None, :]
-        pairs = np.triu(np.ones((len(x), len(x)), dtype=bool), 1)
-        if (both & pairs).any():
-            best = min(best, float(_time_to_close(d[both & pairs], rel[both & pairs], 0.0).min()))
-        if (one & pairs).any():  # a static body does not fall: the moving one closes with gravity
-            closing = np.maximum(speed[:, None], speed[None, :])[one & pairs]
-            best = min(best, float(_time_to_close(d[one & pairs], closing, g).min()))
+        i, j = np.triu_indices(len(x), 1)  # every pair once
+        d = np.linalg.norm(x[i] - x[j], axis=1) - reach[i] - reach[j] - margin
+        both, one = moving[i] & moving[j], moving[i] ^ moving[j]
+        if both.any():  # falling together: only their relative speed closes the gap
+            best = min(best, float(_time_to_close(d[both], np.linalg.norm(v[i] - v[j], axis=1)[both], 0.0).min()))
+        if one.any():  # a static body does not fall: the moving one closes with gravity
+            best = min(best, float(_time_to_close(d[one], np.maximum(speed[i], speed[j])[one], g).min()))
     if world._ncol and moving.any():
         gaps = _collider_gaps(world._col, x[moving], reach[moving]) - margin
         best = min(best, float(_time_to_close(gaps, np.broadcast_to(speed[moving], gaps.shape), g).min()))
