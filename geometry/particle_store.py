@@ -29,6 +29,7 @@ import numpy as np
 import taichi as ti
 
 from geometry.particles import KIND_SUBDIVIDED, ParticleSet
+from geometry.store_checks import k_first_invalid
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
@@ -193,46 +194,6 @@ def _k_body_totals(n: ti.i32, particle_alive: Arr, particle_body: Arr, particle_
             ti.atomic_add(mass[b], particle_mass[i])
 
 
-@ti.func
-def _finite(x) -> ti.i32:
-    return ti.abs(x) < 1e300  # False for inf and NaN
-
-
-@ti.kernel
-def _k_first_invalid(n: ti.i32, check_kernel: ti.i32, particle_alive: Arr, particle_centroid: Arr,
-                     particle_rest_verts: Arr, particle_volume: Arr, particle_mass: Arr, particle_kernel: Arr,
-                     first: Arr):
-    """Per check (centroid, rest verts, volume, mass, kernel tensor), the first alive particle that
-    fails it, or n: non-finite values, volume or mass <= 0, a kernel tensor whose symmetric part is
-    not positive definite (Sylvester: its leading minors > 0)."""
-    for c in range(5):
-        first[c] = n
-    for i in range(n):
-        if particle_alive[i] != 0:
-            bad = ti.Vector([0, 0, 0, 0, 0])
-            for a in ti.static(range(3)):
-                if not _finite(particle_centroid[i, a]):
-                    bad[0] = 1
-            for a, b in ti.ndrange(4, 3):
-                if not _finite(particle_rest_verts[i, a, b]):
-                    bad[1] = 1
-            if not (_finite(particle_volume[i]) and particle_volume[i] > 0.0):
-                bad[2] = 1
-            if not (_finite(particle_mass[i]) and particle_mass[i] > 0.0):
-                bad[3] = 1
-            if check_kernel != 0:
-                g = ti.Matrix.zero(ti.f64, 3, 3)
-                for a, b in ti.static(ti.ndrange(3, 3)):
-                    g[a, b] = 0.5 * (particle_kernel[i, a, b] + particle_kernel[i, b, a])
-                m2 = g[0, 0] * g[1, 1] - g[0, 1] * g[1, 0]
-                m3 = g.determinant()
-                if not (_finite(m3) and g[0, 0] > 0.0 and m2 > 0.0 and m3 > 0.0):
-                    bad[4] = 1
-            for c in ti.static(range(5)):
-                if bad[c] != 0:
-                    ti.atomic_min(first[c], i)
-
-
 @ti.kernel
 def _k_copy_store(n: ti.i32, src: Arr, dst: Arr):
     """Rows 0..n-1 of one store array into a bigger one of the same rank and trailing shape."""
@@ -338,26 +299,36 @@ class ParticleStore:
         """The alive particles of `bodies` and the parents of their children, gathered: (store ids (K,)
         ascending, a local ParticleSet of K rows, their kernel tensors (K, 3, 3) 1/m, the store rows
         of their extra links). `put_body` writes a changed copy of one body back."""
-        bodies = np.asarray(list(bodies), dtype=np.int64).reshape(-1)
-        want = np.zeros(int(bodies.max(initial=-1)) + 1 or 1, dtype=np.int32)  # (B,) flag per body id
-        want[bodies[bodies >= 0]] = 1
-        k = _k_select_bodies(self.count, want, self.particle_alive, self.particle_body, self.particle_kind,
-                           self.particle_parent, self.particle_slot, self.select_ids, self.counter)
-        ids = np.empty(k, dtype=np.int32)
-        _k_copy_rows_i32(k, self.select_ids, ids)
-        ids.sort()  # the order of the whole-world arrays: the host code's results do not change
-        cols = {name: np.empty((k, *shape), dtype=_kernel_dtype(host))
-                for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
-        ne = _k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
-                       self.link_extra_alive, self.select_rows, self.counter)
+        ids = self._select(bodies)
+        cols, ne = self._gather(ids)
         rows = np.empty(ne, dtype=np.int32)
         _k_copy_rows_i32(ne, self.select_rows, rows)
         rows.sort()
         pairs = np.empty((ne, 2), dtype=np.int32)
         _k_gather_extra(rows, ids, self.link_extra, self.particle_slot, pairs)
-        self.transfers.append(("take_bodies", k))
+        self.transfers.append(("take_bodies", len(ids)))
         ps = _particle_set(cols, pairs)
         return ids.astype(np.int64), ps, cols["particle_kernel"], rows
+
+    def _select(self, bodies) -> np.ndarray:
+        """take_bodies, step 1: the store ids (K,) int32, ascending, and their rows marked."""
+        bodies = np.asarray(list(bodies), dtype=np.int64).reshape(-1)
+        want = np.zeros(int(bodies.max(initial=-1)) + 1 or 1, dtype=np.int32)  # (B,) flag per body id
+        want[bodies[bodies >= 0]] = 1
+        k = _k_select_bodies(self.count, want, self.particle_alive, self.particle_body, self.particle_kind,
+                             self.particle_parent, self.particle_slot, self.select_ids, self.counter)
+        ids = np.empty(k, dtype=np.int32)
+        _k_copy_rows_i32(k, self.select_ids, ids)
+        ids.sort()  # the order of the whole-world arrays: the host code's results do not change
+        return ids
+
+    def _gather(self, ids: np.ndarray) -> tuple[dict, int]:
+        """take_bodies, step 2: the rows' columns (local ids) and how many extra links they hold."""
+        cols = {name: np.empty((len(ids), *shape), dtype=_kernel_dtype(host))
+                for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
+        ne = _k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
+                       self.link_extra_alive, self.select_rows, self.counter)
+        return cols, ne
 
     def put_body(self, ids: np.ndarray, ps: ParticleSet, kernel_G: np.ndarray, extra_rows: np.ndarray) -> np.ndarray:
         """Write back an event's local ParticleSet: rows 0..len(ids)-1 are the gathered particles
@@ -383,7 +354,9 @@ class ParticleStore:
         grains outgrow HEADROOM: compiling the copy stalled a frame 190 ms), each on nothing and changing
         nothing (the host copy and `transfers` stay): sim/warm_up.py runs them (issue 16)."""
         columns = {(a.dtype, len(a.shape)): a for a in self._columns() + [self.link_extra]}.values()
-        launches = [lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
+        nothing = np.zeros(0, np.int32)
+        launches = [lambda: self._select([]), lambda: self._gather(nothing),  # the event's largest kernels first
+                    lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
                     self.first_invalid, lambda: self.body_totals(1),
                     *(functools.partial(_k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
                     lambda: _k_compact_extra(0, self.link_extra, self.link_extra_alive)]
@@ -440,13 +413,18 @@ class ParticleStore:
         return out
 
     def first_invalid(self) -> dict[str, int]:
-        """Per check, the first alive particle that fails it (see `_k_first_invalid`), or -1."""
+        """Per check, the first alive particle that fails it (geometry.store_checks), or -1."""
         first = np.zeros(5, dtype=np.int32)
-        _k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
-                         self.particle_rest_verts, self.particle_volume, self.particle_mass, self.particle_kernel,
-                         first)
+        k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
+                        self.particle_rest_verts, self.particle_volume, self.particle_mass, self.particle_kernel,
+                        first)
         names = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
         return {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
+
+    def kept_host(self) -> ParticleSet | None:
+        """`host()`'s ParticleSet where it is kept already (nothing changed since the build or the last
+        download), else None: read without launching a kernel."""
+        return self._host[1] if self._host is not None and self._host[0] == self.version else None
 
     def host(self) -> tuple[ParticleSet, np.ndarray]:
         """The whole store as a read-only ParticleSet and its kernel tensors (N, 3, 3) 1/m: an output

@@ -31,19 +31,23 @@ class SurfaceChanges:
     changed: list  # those whose particles changed (or are new)
     stamps: list  # the particle store's stamp of each changed body
     ids: np.ndarray | None  # store ids of the taken particles (None when nothing changed)
-    particles: object = None  # the changed bodies' ParticleSet, taken from the store
+    particles: object = None  # a ParticleSet holding the changed bodies' particles (rows `ids` of the store)
     looks: list | None = None  # every material's look, when they changed (the viewer's added ball)
 
 
 def surface_changes(world, known: dict) -> SurfaceChanges:
     """The live bodies and the particles of those whose store stamp differs from `known` (body ->
-    stamp)."""
+    stamp): taken from the store, or, at a consumer's first refresh (`known` empty) where the store's
+    whole content is on the host already (the build keeps it), that copy (the take kernels then
+    compile in the waits for drawn frames, sim/warm_up.py, not before the first frame)."""
     store = world.store
     count, _ = store.body_totals(max(store.body_stamp, default=-1) + 1)
     bodies = np.flatnonzero(count > 0).tolist()
     changed = [b for b in bodies if known.get(b) != store.body_stamp[b]]
     ids = ps = None
-    if changed:
+    if changed and not known and (ps := store.kept_host()) is not None:
+        ids = np.arange(len(ps), dtype=np.int64)
+    elif changed:
         ids, ps, _, _ = store.take_bodies(changed)
     return SurfaceChanges(bodies, changed, [store.body_stamp[b] for b in changed], ids, ps)
 

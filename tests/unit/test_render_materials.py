@@ -135,6 +135,31 @@ def test_surface_cache_equals_a_full_rebuild(taichi_runtime):
         world.release()
 
 
+def test_a_first_refresh_reads_the_kept_host_copy(taichi_runtime):
+    """A consumer's first refresh, where the store's whole content is on the host already (after the
+    build, or after a download), cuts the surfaces from that copy and launches no take kernel; they
+    are the full rebuild's, face for face, also after the glass pane's event (fragments, children,
+    debris)."""
+    from render.session import world_surfaces
+    from render.surface_blocks import SurfaceCache
+
+    world = World(load_scene("glass_r3"))
+    try:
+        for frames in (0, 5):
+            for _ in range(frames):
+                world.step_frame()
+            full = _faces_by_label(world_surfaces(world))  # downloads the store: the copy is kept
+            assert world.store.kept_host() is not None
+            world.store.transfers.clear()
+            assert _faces_by_label(SurfaceCache().surfaces(world)) == full
+            assert "take_bodies" not in [name for name, _ in world.store.transfers]
+        assert world.events and world.fragment_count() > 2
+        world.store.put_body(*world.store.take_bodies([]))  # any write moves the store's version
+        assert world.store.kept_host() is None  # the next first refresh takes the bodies
+    finally:
+        world.release()
+
+
 def _drawn_triangles(scene) -> list:
     """The triangles a RenderScene draws, as sorted rows (reference corners, body, colours, looks);
     blanked ones (static, every corner at the origin) left out."""
