@@ -429,7 +429,7 @@ class ParticleStore:
     def host(self) -> tuple[ParticleSet, np.ndarray]:
         """The whole store as a read-only ParticleSet and its kernel tensors (N, 3, 3) 1/m: an output
         copy, downloaded when the store changed since the last call."""
-        if self._host is None or self._host[0] != self.version:
+        if self.kept_host() is None:
             n = self.count
             cols = {name: getattr(self, name).to_numpy()[:n] for name in (*_FIXED, *_CHANGING)}
             alive = self.link_extra_alive.to_numpy()[: self.extra_count] != 0
