@@ -4,7 +4,7 @@
 
 Each configuration starts a fresh cluster (worker processes compile Taichi's kernels on their first
 task, as a real sweep does) and writes into its own temporary folder, so nothing is resumed. A
-one-frame warm-up run first fills the tet cache (geometry/mesh_cache.py), as any earlier run of the
+one-frame warm-up run first fills the tet cache (geometry/build_cache.py), as any earlier run of the
 scene would have: without the cache, two processes meshing at once on this 2-core machine make
 Netgen 5-8x slower, and the speed-up measured 1.46-1.54x. The
 table gives wall seconds for the whole sweep (cluster start to last row) and the sum of the runs'

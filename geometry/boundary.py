@@ -12,7 +12,9 @@ sphere covers every member: max |x_k - c| + r_k. Ties among equally near candida
 scipy's k-d tree order.
 
 Every body is grouped in one pass: the fragments of a split are tens of bodies, and one tree, one
-query and one grouping kernel serve them all (the same groups as a pass per body, tested).
+query and one grouping kernel serve them all (the same groups as a pass per body, tested). A whole
+object's build (`cache=True`) keeps its query's result on disk (geometry/build_cache.py): the query is
+fast, but importing scipy for it costs a start 0.45 s.
 
 Departure from the paper (docs/decisions.md): with the members' free faces given, the sphere's
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
@@ -34,6 +36,9 @@ from geometry.boundary_groups import greedy_groups
 DEFAULT_GROUP_SIZE = 4  # particles per boundary sphere (the paper's sampling size n)
 DEFAULT_REACH = 4.0  # candidate members lie within this many particle radii of the seed (n = 4)
 PARALLEL_QUERY = 2000  # surface particles of a body from which its nearest-neighbour query uses every core
+# the candidate search's version in the cache keys: raise it when `_query_candidates` answers the same input
+# differently, so that cached answers of the old search are not read
+CANDIDATES_VERSION = 1
 
 
 @dataclass
@@ -71,7 +76,31 @@ def _morton_order(points: np.ndarray, first: np.ndarray, body_of: np.ndarray, bi
     return np.lexsort((key, body_of))
 
 
-def _candidates(points, rad, body_of, k, reach):
+def _candidates(points, rad, body_of, k: int, reach: float, cache: bool):
+    """`_query_candidates`, read from the disk cache when `cache` (a whole object's build)."""
+    if not cache:
+        return _query_candidates(points, rad, body_of, k, reach)
+    from importlib.metadata import version
+
+    from geometry.build_cache import cached_arrays, digest
+
+    n = len(points)
+    points, rad, body_of = np.asarray(points, np.float64), np.asarray(rad, np.float64), np.asarray(body_of, np.int64)
+    key = digest("boundary-candidates", f"{CANDIDATES_VERSION} scipy {version('scipy')}",
+                 points.tobytes() + rad.tobytes() + body_of.tobytes(), k=int(k), reach=float(reach))
+
+    def query() -> dict:
+        return dict(zip(("near", "ok"), _query_candidates(points, rad, body_of, k, reach)))
+
+    def valid(hit: dict) -> bool:
+        near, ok = hit["near"], hit["ok"]
+        return near.shape == ok.shape == (n, k) and ok.dtype == bool and (n == 0 or 0 <= near.min() <= near.max() < n)
+
+    got = cached_arrays("boundary", key, ("near", "ok"), query, valid)
+    return got["near"].astype(np.intp), got["ok"]
+
+
+def _query_candidates(points, rad, body_of, k, reach):
     """Each row's k nearest rows of its own body (itself first) and which lie within reach x the
     larger radius: one tree over every body, the body index as a 4th coordinate further apart than
     any two points, so that distances within a body are the 3D ones bit for bit."""
@@ -101,13 +130,15 @@ def build_boundary_particles(
     reach: float | None = None,
     rest_verts: np.ndarray | None = None,
     free_faces: np.ndarray | None = None,
+    cache: bool = False,
 ) -> BoundaryParticles:
     """Group the surface particles of every body into boundary spheres (Sect. 5.3).
 
     centroid (N,3) m, radius (N,) m, mass (N,) kg, body (N,) int: per particle;
     surface (N,) bool: which particles take part (surface particles of live bodies);
     rest_verts (N,4,3) m and free_faces (N,4) bool (faces on the surface): optional; when given,
-    spheres are pulled inside the surface (module docstring).
+    spheres are pulled inside the surface (module docstring); cache: keep the candidate search's
+    result on disk (whole objects at their build, which the next run builds again).
     """
     if group_size < 1:
         raise ValueError(f"group_size must be >= 1, got {group_size}")
@@ -124,7 +155,7 @@ def build_boundary_particles(
     first, body_of = _by_body(body[rows])
     pts = centroid[rows]
     order = _morton_order(pts, first, body_of)
-    near, ok = _candidates(pts, radius[rows], body_of, min(len(rows), 3 * group_size), reach)
+    near, ok = _candidates(pts, radius[rows], body_of, min(len(rows), 3 * group_size), reach, cache)
     gid = greedy_groups(order, near, ok, group_size, 0)[0]  # bodies in turn: ids count up body by body
     members = rows[np.argsort(gid, kind="stable")]
     g = np.sort(gid)

@@ -37,7 +37,7 @@ class ObjectGeometry:
 
     mesh: TetMesh
     particles: ParticleSet
-    boundary: BoundaryParticles
+    boundary: BoundaryParticles | None  # None where the caller builds its bodies' spheres itself (the World)
     report: dict  # quality and counts (the paper's Table 1 columns among them)
     thickness: float  # m: the object's thickness B (Eq. 11)
 
@@ -63,9 +63,11 @@ def build_object(
     body: int = 0,
     shape_params: dict | None = None,
     layer_axis=None,
+    boundary: bool = True,
 ) -> ObjectGeometry:
     """Build an object from a named shape ('pot', 'pane', ...), a shape type with `shape_params`,
-    a surface mesh file (tetrahedralized at `resolution`) or a tet mesh file (used as is)."""
+    a surface mesh file (tetrahedralized at `resolution`) or a tet mesh file (used as is); its
+    boundary spheres unless `boundary` is False (the World makes each body's own, rigid/bodies.py)."""
     tet_report: dict = {}
     repairs: list[str] = []
     ext = os.path.splitext(source)[1].lower()
@@ -97,22 +99,23 @@ def build_object(
         mesh, tet_report = tetrahedralize(shape, resolution, seed=seed, layer_axis=layer_axis)
         thickness = shape.thickness()
     particles = build_particles(mesh, density, body=body)
-    boundary = build_boundary_particles(
-        particles.centroid, particles.radius, particles.mass, particles.body, particles.surface, group_size,
-        rest_verts=particles.rest_verts, free_faces=particles.links < 0,
-    )
     report = quality_report(mesh) if not tet_report else tet_report
     report.update(
         physical_particles=len(particles),
         surface_particles=int(particles.surface.sum()),
-        boundary_particles=len(boundary),
-        boundary_group_size=group_size,
         links=int((particles.links >= 0).sum() // 2),
         mass_kg=float(particles.mass.sum()),
         thickness_m=thickness,
         repairs=repairs,
     )
-    return ObjectGeometry(mesh, particles, boundary, report, thickness)
+    spheres = None
+    if boundary:
+        spheres = build_boundary_particles(
+            particles.centroid, particles.radius, particles.mass, particles.body, particles.surface, group_size,
+            rest_verts=particles.rest_verts, free_faces=particles.links < 0,
+        )
+        report.update(boundary_particles=len(spheres), boundary_group_size=group_size)
+    return ObjectGeometry(mesh, particles, spheres, report, thickness)
 
 
 __all__ = ["NAMED_SHAPES", "ObjectGeometry", "build_object", "make_shape", "lathe"]

@@ -15,7 +15,6 @@ remains for `layer_axis`; everything else is meshed by Netgen. Steps, all vector
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import Delaunay, cKDTree
 
 from core.errors import MeshError
 from geometry.tetmesh import face_adjacency, signed_volumes
@@ -53,6 +52,8 @@ def project_to_surface(shape, h: float, iterations: int = 6) -> np.ndarray:
     Used by shapes without an explicit sampler (the figurine). Newton steps along the numerical
     gradient of the signed distance, then thinning to one point per cell of size 0.7 h.
     """
+    from scipy.spatial import cKDTree  # here, not at the top: a run that does not mesh imports no scipy
+
     lo, hi = shape.bounds()
     fine = 0.5 * h
     pts = _bcc_lattice(lo, hi, fine)
@@ -113,6 +114,8 @@ def _peel_surface_slivers(points: np.ndarray, tets: np.ndarray, name: str) -> tu
 def layered_delaunay(shape, h: float, seed: int, layer_axis, layer_spacing: float | None):
     """(verts (V, 3) m, tets (T, 4), counts) of `shape` with interior vertices in layers normal to
     `layer_axis`, `layer_spacing` (m, default h) apart. Same inputs and seed give identical meshes."""
+    from scipy.spatial import Delaunay, cKDTree
+
     surface = shape.surface_samples(h)
     interior = _layered_lattice(*shape.bounds(), h, np.asarray(layer_axis, float), layer_spacing or h)
     rng = np.random.default_rng(seed)

@@ -8,7 +8,7 @@ Two inputs (Sect. 5.1 starts from either):
 
 Netgen is deterministic for the same input and runs single-threaded here (no task manager is
 started), so a scene builds the same tets on every machine, and its output is kept on disk
-(`geometry.mesh_cache`): the second build of an object reads its tets instead of meshing.
+(`geometry.build_cache`): the second build of an object reads its tets instead of meshing.
 Why Netgen and not fTetWild, TetGen or gmsh: docs/decisions.md, "Tet mesher".
 """
 
@@ -20,7 +20,7 @@ import tempfile
 import numpy as np
 
 from core.errors import MeshError
-from geometry.mesh_cache import cache_key, cached_tets
+from geometry.build_cache import cache_key, cached_tets
 
 GRADING = 0.3  # Netgen's mesh-size grading (0 = uniform, 1 = free growth away from small features)
 # Netgen's curvature safety (elements per radius of curvature; Netgen's default is 2), tried in turn

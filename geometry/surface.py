@@ -17,6 +17,8 @@ that is not (rim of a crack, or an earlier child), an edge on one side is split 
 the other (a T-junction); such edges are found (directed edges without a reverse) and the face
 with the long edge is split at the hanging vertex, so every edge is used in both directions.
 The enclosed volume (divergence theorem) then equals the fragment's tet volume.
+scipy is imported inside the functions that use it: importing it takes 0.45 s, and neither a run's
+first frame nor the drawing process needs it.
 """
 
 from __future__ import annotations
@@ -24,9 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from geometry.particles import ParticleSet
 from geometry.subdivision import coplanar_face_pairs, face_points
@@ -56,6 +55,9 @@ class SurfaceMesh:
 
 def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     """(K,) int: face ids (particle * 4 + face) in balanced extra-link groups."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     ex = ps.extra_links
     if len(ex) == 0:
         return np.zeros(0, np.int64)
@@ -85,6 +87,8 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
 def _split_t_junctions(verts, faces, vert_label, face_data, max_rounds: int = 64):
     """Split faces at vertices hanging on their edges (both halves keep their face's `face_data`);
     returns (faces, face_data, open directed edges)."""
+    from scipy.spatial import cKDTree
+
     nv = len(verts)
     for _ in range(max_rounds):
         e = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)  # (F, 3, 2): directed edges per face
@@ -216,19 +220,23 @@ class RestSurface:
         self.normal = n / np.maximum(self.area2, 1e-300)[:, None]  # (T, 3) -: unit normals
         corner = np.linalg.norm(self.tris - self.centre[:, None, :], axis=2)
         self.reach = float(corner.max(initial=0.0))  # m: a point on a triangle lies this near its centre
-        self._tree = cKDTree(self.centre) if len(self.tris) else None
+        self._tree = None  # the search tree over `centre`, made at the first `covers` (scipy: 0.45 s to import)
 
     def covers(self, tris: np.ndarray, tol: float) -> np.ndarray:
         """(F,) bool: which triangles `tris` (F, 3, 3) lie on this surface with the same orientation: the
         centroid within `tol` (m) of a surface triangle's plane and inside it (barycentric tolerance tol /
         its size), normals within 25 degrees."""
         out = np.zeros(len(tris), dtype=bool)
-        if len(tris) == 0 or self._tree is None:
+        if len(tris) == 0 or len(self.tris) == 0:
             return out
         qc = tris.mean(1)
         qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
         qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
         # candidate (query, surface triangle) pairs as arrays, no Python list per query
+        from scipy.spatial import cKDTree
+
+        if self._tree is None:
+            self._tree = cKDTree(self.centre)
         pairs = cKDTree(qc).sparse_distance_matrix(self._tree, self.reach + tol, output_type="ndarray")
         if len(pairs) == 0:
             return out

@@ -135,8 +135,10 @@ def surface_mask(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) ->
     return free_faces(particles, ids, labels).any(axis=1)
 
 
-def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray, group_size: int):
-    """Boundary spheres (geometry.boundary) of each label's surface particles; body = label index."""
+def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray, group_size: int,
+                     cache: bool = False):
+    """Boundary spheres (geometry.boundary) of each label's surface particles; body = label index;
+    `cache`: the candidate search through the disk cache (a whole object's build)."""
     free = free_faces(particles, ids, labels)
     return build_boundary_particles(
         particles.centroid[ids],
@@ -147,6 +149,7 @@ def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray
         group_size=group_size,
         rest_verts=particles.rest_verts[ids],
         free_faces=free,
+        cache=cache,
     )
 
 
@@ -163,12 +166,14 @@ def add_tet_body(
     restitution: float = 0.0,
     friction: float = 0.5,
     spheres: tuple[np.ndarray, np.ndarray] | None = None,
+    cache: bool = False,
 ) -> int:
     """Add a body made of `particles[particle_ids]` (default: all alive) and return its id.
 
     The body starts at its rest pose moved by `offset` (m): body_x = ref_com + offset, rotated by q
     about its COM. Boundary spheres come from the surface particles with `group_size` n (Sect. 5.3),
-    unless `spheres` = (centres in the reference frame (B,3) m, radii (B,) m) is given.
+    unless `spheres` = (centres in the reference frame (B,3) m, radii (B,) m) is given; `cache`: their
+    candidate search through the disk cache (geometry/build_cache.py: a scene's bodies at its build).
     Sets particles.body[particle_ids] to the new id.
     """
     ids = (
@@ -178,7 +183,7 @@ def add_tet_body(
         particles.rest_verts[ids], particles.mass[ids], source=f"body of {len(ids)} particles"
     )
     if spheres is None:
-        bp = boundary_spheres(particles, ids, np.zeros(len(ids), np.int64), group_size)
+        bp = boundary_spheres(particles, ids, np.zeros(len(ids), np.int64), group_size, cache)
         centres, radii = bp.position, bp.radius
     else:
         centres, radii = np.asarray(spheres[0], dtype=np.float64), np.asarray(spheres[1], dtype=np.float64)

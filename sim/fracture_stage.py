@@ -44,18 +44,34 @@ def take_body(world, body: int) -> TakenBody:
     return TakenBody(*world.store.take_bodies([body]))
 
 
-def warm_pieces(world) -> list:
-    """What the first fracture event would otherwise wait for (issue 16: the first event is as fast as
-    the tenth), as pieces of one kernel or a few each: the event's modules and libraries (55 ms of
-    imports for the pot), and the kernels that only events and debris launch, launched on nothing.
-    sim/warm_up.py runs them, at the build or spread over the frames before the first contact."""
+# What an event imports, one piece each (at most about 60 ms a piece on this machine): scipy's packages in an
+# order in which each piece adds only its own modules (scipy 1.17; a module another scipy lacks is skipped),
+# then the event's own modules. A run's build imports none of them (geometry/build_cache.py).
+LIBRARY_IMPORTS = ("numpy.ma", "numpy.f2py", "numpy.random", "numpy.testing", "scipy._lib._array_api", "scipy.sparse",
+                   "scipy.linalg", "scipy.sparse.csgraph", "scipy.special", "scipy.spatial")
+EVENT_MODULES = ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation")
+
+
+def _library_import(module: str) -> None:
     import importlib
 
-    def imports() -> None:
-        for module in ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation", "scipy.spatial"):
-            importlib.import_module(module)
+    try:
+        importlib.import_module(module)
+    except ModuleNotFoundError:  # laid out otherwise in this version: the event imports what it needs itself
+        pass
 
-    pieces = [imports, *world.store.warm_pieces()]
+
+def warm_pieces(world) -> list:
+    """What the first fracture event would otherwise wait for (issue 16: the first event is as fast as
+    the tenth), as pieces of one kernel or a few each: the event's libraries and modules (about 0.3 s of
+    imports), and the kernels that only events and debris launch, launched on nothing.
+    sim/warm_up.py runs them, at the build or spread over the frames before the first contact."""
+    import importlib
+    from functools import partial
+
+    pieces = [partial(_library_import, m) for m in LIBRARY_IMPORTS]
+    pieces += [partial(importlib.import_module, m) for m in EVENT_MODULES]
+    pieces += world.store.warm_pieces()
     if "rigid" in world.stages:
         pieces += world.rigid.warm_event_pieces()
     if "debris" in world.stages:

@@ -148,7 +148,7 @@ class World:
             if o.mesh:
                 mesh_file = resolve_mesh_path(o.mesh, self.cfg.source)
                 geo = build_object(mesh_file, resolution=o.resolution, density=density, units=o.units,
-                                   repair=o.repair, seed=self.seed, group_size=o.group_size)
+                                   repair=o.repair, seed=self.seed, group_size=o.group_size, boundary=False)
             else:
                 params = dict(o.shape)
                 kind = params.pop("type", None)
@@ -156,7 +156,7 @@ class World:
                     raise ConfigError(f"objects[{i}].shape.type", None, "a shape type", self.cfg.source)
                 make_shape(kind, params, key_path=f"objects[{i}].shape")  # validates early with the key path
                 geo = build_object(kind, resolution=o.resolution, density=density, seed=self.seed,
-                                   group_size=o.group_size, shape_params=params)
+                                   group_size=o.group_size, shape_params=params, boundary=False)
         except ConfigError as exc:
             if not exc.key_path.startswith("objects"):
                 exc.key_path = f"objects[{i}].{exc.key_path}"
@@ -211,7 +211,7 @@ class World:
                 sel = np.flatnonzero(ps.material[sl] == mid) + sp["start"]
                 h = kc.support * o.resolution  # m: support radius
                 if kc.mode == "wpca":
-                    G[sel] = kernel_wpca(ps.centroid[sel], h, k_r=kc.max_ratio, axis_scale=kc.axis_scale)
+                    G[sel] = kernel_wpca(ps.centroid[sel], h, k_r=kc.max_ratio, axis_scale=kc.axis_scale, cache=True)
                 else:
                     axes = np.asarray(kc.axes, dtype=np.float64).reshape(3, 3).T if kc.mode == "fixed" else np.eye(3)
                     rot = euler_xyz_deg(o.rotation)
@@ -254,7 +254,7 @@ class World:
             mat = self.materials[int(ps.material[ids[0]])]
             bid = add_tet_body(
                 self.rigid, ps, ids, group_size=o.group_size, v=o.velocity, w=o.angular_velocity,
-                static=o.static, restitution=mat.restitution, friction=mat.friction,
+                static=o.static, restitution=mat.restitution, friction=mat.friction, cache=True,
             )
             c = ps.centroid[ids]
             sp["body"] = bid

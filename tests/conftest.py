@@ -33,7 +33,7 @@ def pytest_configure(config: pytest.Config) -> None:
     import tempfile
 
     from core.runtime import init_taichi, resolve_arch
-    from geometry.mesh_cache import CACHE_ENV
+    from geometry.build_cache import CACHE_ENV
 
     # the tet cache of this session (its subprocesses inherit it): no test reads a user's cache
     os.environ[CACHE_ENV] = tempfile.mkdtemp(prefix="anisofrac-test-cache-")

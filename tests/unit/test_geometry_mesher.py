@@ -14,7 +14,7 @@ import trimesh
 
 from core.errors import MeshError
 from geometry.build import build_object
-from geometry.mesh_cache import CACHE_ENV
+from geometry.build_cache import CACHE_ENV
 from geometry.tetmesh import validate_tets
 from geometry.tetrahedralize import QUALITY_BOUNDS, check_quality
 
@@ -77,7 +77,7 @@ def _ball_meshes(tmp_path, cache: str, drop_second: bool = False) -> list[str]:
 
     import netgen.occ as occ
 
-    from geometry.mesh_cache import cache_key
+    from geometry.build_cache import cache_key
     from geometry.netgen_mesher import GRADING, SolidMesher
 
     os.environ[CACHE_ENV] = cache

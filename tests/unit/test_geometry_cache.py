@@ -1,0 +1,109 @@
+"""The build cache (geometry/build_cache.py) for the boundary spheres' candidate search (Sect. 5.3): a
+cached build makes the same spheres bit for bit, and a run whose objects were built before imports no
+scipy before its first frame."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geometry.boundary import build_boundary_particles
+from geometry.build import build_object
+from geometry.build_cache import CACHE_ENV
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _spheres(ps, cache: bool):
+    return build_boundary_particles(ps.centroid, ps.radius, ps.mass, ps.body, ps.surface, 4,
+                                    rest_verts=ps.rest_verts, free_faces=ps.links < 0, cache=cache)
+
+
+def _same(a, b) -> bool:
+    return all(np.array_equal(getattr(a, f), getattr(b, f))
+               for f in ("position", "radius", "mass", "body", "member_start", "members"))
+
+
+def test_cached_candidates_give_the_spheres_of_the_search_whatever_the_cache_holds(tmp_path, monkeypatch):
+    ps = build_object("sphere", resolution=0.02).particles
+    reference = _spheres(ps, cache=False)
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    assert _same(_spheres(ps, cache=True), reference)  # a miss: searched and stored
+    entries = list((tmp_path / "boundary").glob("*.npz"))
+    assert len(entries) == 1
+    assert _same(_spheres(ps, cache=True), reference)  # a hit
+    moved = replace(ps, centroid=ps.centroid + 1e-3)  # other points: another entry
+    _spheres(moved, cache=True)
+    assert len(list((tmp_path / "boundary").glob("*.npz"))) == 2
+    entries[0].write_bytes(b"not an npz")  # unreadable: searched again
+    assert _same(_spheres(ps, cache=True), reference)
+    with np.load(entries[0]) as data:  # readable but out of range (another search's rows): searched again
+        near, ok = data["near"], data["ok"]
+    np.savez(entries[0], near=near + len(near), ok=ok)
+    assert _same(_spheres(ps, cache=True), reference)
+    monkeypatch.setenv(CACHE_ENV, "off")
+    assert _same(_spheres(ps, cache=True), reference)
+
+
+def test_an_event_searches_without_the_cache(tmp_path, monkeypatch):
+    """Only whole objects at their build are kept (`cache=True`): the pieces of an event are new every time."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    ps = build_object("sphere", resolution=0.02).particles
+    _spheres(ps, cache=False)
+    assert not (tmp_path / "boundary").exists()
+
+
+def test_a_world_builds_no_object_spheres_it_does_not_use():
+    bare = build_object("sphere", resolution=0.02, boundary=False)
+    assert bare.boundary is None and "boundary_particles" not in bare.report
+    full = build_object("sphere", resolution=0.02)
+    assert full.report["boundary_particles"] == len(full.boundary) > 0
+    assert np.array_equal(full.particles.centroid, bare.particles.centroid)
+
+
+_START = """
+import sys
+sys.path.insert(0, '.')
+from core.runtime import init_taichi
+init_taichi('cpu', 'f32', 1)
+from scenes.loader import load_scene
+from sim.world import World
+import render.session, render.draw_process, render.surface_blocks, render.scene_data
+w = World(load_scene('pot'), warm_events=False)
+w.warm_up.idle = True
+w.warm_up.before_frame()  # the first frame's turn: with idle time to use, no piece runs
+print(sorted(m for m in sys.modules if m == 'scipy' or m.startswith('scipy.')))
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="runs the scene in a subprocess")
+def test_a_drawn_run_imports_no_scipy_before_its_first_frame_once_its_objects_were_built(tmp_path):
+    """scipy.spatial costs a start 0.45 s; with the objects' candidates cached, neither the build, nor the
+    drawing process's modules, nor the frame-0 warm-up import it (the warm-up imports it in pieces later)."""
+    env = {**os.environ, CACHE_ENV: str(tmp_path)}
+    runs = [subprocess.run([sys.executable, "-c", _START], cwd=ROOT, capture_output=True, text=True, env=env,
+                           timeout=300) for _ in range(2)]
+    for r in runs:
+        assert r.returncode == 0, r.stderr
+    assert "'scipy.spatial'" in runs[0].stdout  # the first build searched (and filled the cache)
+    assert runs[1].stdout.strip().splitlines()[-1] == "[]", runs[1].stdout
+
+
+def test_cached_wpca_kernels_are_the_computed_ones(tmp_path, monkeypatch):
+    from sph.kernel import kernel_wpca
+
+    x = build_object("sphere", resolution=0.02).particles.centroid
+    reference = kernel_wpca(x, 0.04, axis_scale=(2.0, 2.0, 1.0))
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    for _ in range(2):  # a miss, then a hit
+        assert np.array_equal(kernel_wpca(x, 0.04, axis_scale=(2.0, 2.0, 1.0), cache=True), reference)
+    other = kernel_wpca(x, 0.04, axis_scale=(0.5, 0.5, 1.0), cache=True)  # another parameter: another entry
+    assert np.array_equal(other, kernel_wpca(x, 0.04, axis_scale=(0.5, 0.5, 1.0)))
+    assert not np.array_equal(other, reference)
+    assert len(list((tmp_path / "kernels").glob("*.npz"))) == 2
