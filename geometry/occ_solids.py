@@ -19,8 +19,17 @@ def _revolved(occ, section: np.ndarray):
     return occ.Face(occ.Wire(edges)).Revolve(occ.Axis((0, 0, 0), occ.Y), 360)
 
 
+def has_occ_solid(shape) -> bool:
+    """Whether `occ_solid` makes an exact solid for `shape` (without importing Netgen)."""
+    from geometry.shapes import Box, Figurine, Revolved, Sphere, TaiChiDisk
+
+    return isinstance(shape, (Box, Sphere, Revolved, TaiChiDisk, Figurine))
+
+
 def occ_solid(shape):
     """A `netgen.occ` solid for `shape`, or None when the shape has no exact solid."""
+    if not has_occ_solid(shape):
+        return None
     import netgen.occ as occ
 
     from geometry.shapes import Box, Figurine, Revolved, Sphere, TaiChiDisk
@@ -39,7 +48,7 @@ def occ_solid(shape):
             occ.Ellipsoid(occ.Axes(occ.Pnt(*c), n=occ.Z, h=occ.X), *a) for c, a in zip(shape.centres, shape.axes)
         ]
         return occ.Fuse(parts)
-    return None
+    raise AssertionError(f"has_occ_solid and occ_solid disagree on {type(shape).__name__}")
 
 
-__all__ = ["occ_solid"]
+__all__ = ["has_occ_solid", "occ_solid"]

@@ -2,6 +2,8 @@
 
 - Procedural shapes are meshed by Netgen from their exact solid (geometry.occ_solids); a shape
   without one (the teaching tet) from its surface mesh; a user's surface mesh from its triangles.
+  A procedural shape's accepted mesh is read back from the build cache by the shape's own state
+  (`_solid_key`), without importing Netgen or making the solid.
 - Anisotropic objects with a `layer_axis` use the paper's layered Delaunay sampling
   (geometry.layered_delaunay): their vertices must lie in layers, which no kept mesher offers. Its
   slivers (worst dihedral about 1 degree) are reported, not refused: it is opt-in, for studies.
@@ -13,12 +15,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from core.errors import ConfigError, MeshError
+from geometry.build_cache import cached_arrays, digest, mesher_version
 from geometry.layered_delaunay import layered_delaunay
-from geometry.netgen_mesher import CURVATURE_SAFETY, SolidMesher, mesh_surface
-from geometry.occ_solids import occ_solid
+from geometry.netgen_mesher import CURVATURE_SAFETY, GRADING, SolidMesher, mesh_surface
+from geometry.occ_solids import has_occ_solid, occ_solid
 from geometry.tetmesh import TetMesh, quality_report, signed_volumes
 
 MAX_TETS = 2_000_000  # refuse resolutions whose tet estimate exceeds this (memory, build time)
@@ -77,20 +82,64 @@ def _finish(shape, verts, tets, name: str, reference_volume, extras: dict, h: fl
     return mesh, report
 
 
-def _mesh_exact_solid(shape, solid, h: float, name: str):
-    """Netgen on the exact solid, with more elements per radius of curvature until the bounds are met."""
-    mesher = SolidMesher(solid, h, name)
-    for k, safety in enumerate(CURVATURE_SAFETY):
-        verts, tets = mesher.mesh(safety)
-        mesh, report = _finish(shape, verts, tets, name, float(solid.mass),
-                               dict(mesher="netgen (exact solid)", curvature_safety=safety), h)
-        try:
-            check_quality(report, name)
-        except MeshError:
-            if k == len(CURVATURE_SAFETY) - 1:
-                raise
-            continue
-        return mesh, report
+def _describe(value) -> bytes:
+    """Exact bytes of a shape's state (its attributes, recursively: arrays by dtype, shape and content)."""
+    if isinstance(value, np.ndarray):
+        return f"{value.dtype.str}{value.shape}".encode() + np.ascontiguousarray(value).tobytes()
+    if isinstance(value, (list, tuple)):
+        return b"[" + b",".join(_describe(v) for v in value) + b"]"
+    if hasattr(value, "__dict__"):
+        return type(value).__name__.encode() + b"{" + b",".join(
+            k.encode() + b"=" + _describe(v) for k, v in sorted(vars(value).items())) + b"}"
+    return repr(value).encode()
+
+
+def _solid_key(shape, h: float) -> str:
+    """The build cache's key of a shape's accepted Netgen mesh: its exact state, the code that turns it into
+    a solid (shapes.py, occ_solids.py), the mesher's parameters and version, and the quality bounds."""
+    here = Path(__file__).parent
+    code = b"".join((here / f).read_bytes() for f in ("shapes.py", "occ_solids.py"))
+    return digest("shape-solid", mesher_version(), _describe(shape) + code, maxh=h, grading=GRADING,
+                  safeties=CURVATURE_SAFETY, bounds=sorted(QUALITY_BOUNDS.items()))
+
+
+def _mesh_exact_solid(shape, h: float, name: str):
+    """Netgen on the exact solid, with more elements per radius of curvature until the bounds are met.
+
+    The accepted try is kept in the build cache under the shape's own state (`_solid_key`), so a second
+    build reads it without importing Netgen (0.15 s) or making the solid; a first one meshes as before
+    (each try through the tet cache keyed by the solid's BRep)."""
+    found = {}
+
+    def mesh_solid() -> dict:
+        solid = occ_solid(shape)
+        mesher = SolidMesher(solid, h, name)
+        for k, safety in enumerate(CURVATURE_SAFETY):
+            verts, tets = mesher.mesh(safety)
+            found["result"] = _finish(shape, verts, tets.copy(), name, float(solid.mass),  # Netgen's own kept
+                                      dict(mesher="netgen (exact solid)", curvature_safety=safety), h)
+            try:
+                check_quality(found["result"][1], name)
+            except MeshError:
+                if k == len(CURVATURE_SAFETY) - 1:
+                    raise
+                continue
+            return dict(verts=verts, tets=tets, safety=np.float64(safety), volume=np.float64(solid.mass))
+
+    def valid(hit: dict) -> bool:
+        v, t = hit["verts"], hit["tets"]
+        return (v.ndim == 2 and v.shape[1:] == (3,) and t.ndim == 2 and t.shape[1:] == (4,) and len(t) > 0
+                and 0 <= t.min() <= t.max() < len(v) and float(hit["safety"]) in CURVATURE_SAFETY
+                and float(hit["volume"]) > 0.0)
+
+    got = cached_arrays("tets", _solid_key(shape, h), ("verts", "tets", "safety", "volume"), mesh_solid, valid)
+    if "result" in found:
+        return found["result"]
+    extras = dict(mesher="netgen (exact solid)", curvature_safety=float(got["safety"]))
+    mesh, report = _finish(shape, got["verts"].astype(np.float64), got["tets"].astype(np.int64), name,
+                           float(got["volume"]), extras, h)
+    check_quality(report, name)
+    return mesh, report
 
 
 def _mesh(shape, h: float, name: str, seed: int, layer_axis, layer_spacing):
@@ -101,9 +150,8 @@ def _mesh(shape, h: float, name: str, seed: int, layer_axis, layer_spacing):
     single = _single_tet(shape, h)
     if single is not None:
         return _finish(shape, *single, name, None, dict(mesher="single tet"), h)
-    solid = occ_solid(shape)
-    if solid is not None:
-        return _mesh_exact_solid(shape, solid, h, name)
+    if has_occ_solid(shape):
+        return _mesh_exact_solid(shape, h, name)
     surface = shape.reference_mesh()
     verts, tets = mesh_surface(surface.vertices, surface.faces, h, name)
     return _finish(shape, verts, tets, name, float(surface.volume), dict(mesher="netgen (surface mesh)"), h)

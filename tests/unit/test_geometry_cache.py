@@ -1,6 +1,7 @@
-"""The build cache (geometry/build_cache.py) for the boundary spheres' candidate search (Sect. 5.3): a
-cached build makes the same spheres bit for bit, and a run whose objects were built before imports no
-scipy before its first frame."""
+"""The build cache (geometry/build_cache.py) beyond Netgen's tets (test_geometry_mesher.py): a shape's
+accepted mesh by its own state (Sect. 5.1), the boundary spheres' candidate search (Sect. 5.3) and the
+WPCA kernels (Sect. 4.1). A cached build gives the same objects bit for bit, and a run whose objects
+were built before imports neither scipy nor Netgen before its first frame."""
 
 from __future__ import annotations
 
@@ -78,20 +79,20 @@ import render.session, render.draw_process, render.surface_blocks, render.scene_
 w = World(load_scene('pot'), warm_events=False)
 w.warm_up.idle = True
 w.warm_up.before_frame()  # the first frame's turn: with idle time to use, no piece runs
-print(sorted(m for m in sys.modules if m == 'scipy' or m.startswith('scipy.')))
+print(sorted(m for m in sys.modules if m.split('.')[0] in ('scipy', 'netgen')))
 """
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="runs the scene in a subprocess")
-def test_a_drawn_run_imports_no_scipy_before_its_first_frame_once_its_objects_were_built(tmp_path):
-    """scipy.spatial costs a start 0.45 s; with the objects' candidates cached, neither the build, nor the
-    drawing process's modules, nor the frame-0 warm-up import it (the warm-up imports it in pieces later)."""
+def test_a_drawn_run_imports_no_scipy_or_netgen_before_its_first_frame_once_its_objects_were_built(tmp_path):
+    """scipy.spatial costs a start 0.45 s and Netgen 0.15 s; with the objects cached, neither the build, nor
+    the drawing process's modules, nor the frame-0 warm-up import them (the warm-up imports scipy later)."""
     env = {**os.environ, CACHE_ENV: str(tmp_path)}
     runs = [subprocess.run([sys.executable, "-c", _START], cwd=ROOT, capture_output=True, text=True, env=env,
                            timeout=300) for _ in range(2)]
     for r in runs:
         assert r.returncode == 0, r.stderr
-    assert "'scipy.spatial'" in runs[0].stdout  # the first build searched (and filled the cache)
+    assert "'scipy.spatial'" in runs[0].stdout and "'netgen.occ'" in runs[0].stdout  # built, cache filled
     assert runs[1].stdout.strip().splitlines()[-1] == "[]", runs[1].stdout
 
 
@@ -107,3 +108,33 @@ def test_cached_wpca_kernels_are_the_computed_ones(tmp_path, monkeypatch):
     assert np.array_equal(other, kernel_wpca(x, 0.04, axis_scale=(0.5, 0.5, 1.0)))
     assert not np.array_equal(other, reference)
     assert len(list((tmp_path / "kernels").glob("*.npz"))) == 2
+
+
+@pytest.mark.parametrize("kind, params, h", [("lathe", dict(profile=[[0.05, 0.0], [0.09, 0.08], [0.06, 0.2]],
+                                                             thickness=0.008), 0.01),
+                                             ("sphere", dict(radius=0.02), 0.012)])
+def test_a_shape_read_by_its_parameters_is_the_mesh_netgen_makes(tmp_path, monkeypatch, kind, params, h):
+    """A procedural shape's accepted mesh is kept under the shape's own state: the same tets, regions and
+    quality report as Netgen on a fresh solid (the ball's first try fails the bounds), for a hit and a
+    miss, and another parameter is another entry."""
+    import geometry.netgen_mesher as ng
+    from geometry.build import make_shape
+    from geometry.tetrahedralize import tetrahedralize
+
+    monkeypatch.setenv(CACHE_ENV, "off")
+    ref_mesh, ref_report = tetrahedralize(make_shape(kind, params), h)
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    first = tetrahedralize(make_shape(kind, params), h)
+    monkeypatch.setattr(ng.SolidMesher, "__init__", lambda *a: pytest.fail("a hit makes no solid"))
+    again = tetrahedralize(make_shape(kind, params), h)
+    for mesh, report in (first, again):
+        assert np.array_equal(mesh.verts, ref_mesh.verts) and np.array_equal(mesh.tets, ref_mesh.tets)
+        assert np.array_equal(mesh.tet_region, ref_mesh.tet_region)
+        assert report == ref_report
+    assert ref_report["curvature_safety"] == (3.0 if kind == "sphere" else 2.0)
+    monkeypatch.undo()
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    other = {**params, "radius": 0.021} if kind == "sphere" else {**params, "thickness": 0.009}
+    entries = len(list((tmp_path / "tets").glob("*.npz")))
+    tetrahedralize(make_shape(kind, other), h)
+    assert len(list((tmp_path / "tets").glob("*.npz"))) > entries
