@@ -13,8 +13,8 @@ scipy's k-d tree order.
 
 Every body is grouped in one pass: the fragments of a split are tens of bodies, and one tree, one
 query and one grouping kernel serve them all (the same groups as a pass per body, tested). A whole
-object's build (`cache=True`) keeps its query's result on disk (geometry/build_cache.py): the query is
-fast, but importing scipy for it costs a start 0.45 s.
+object's build (`cache=True`) keeps its groups on disk (geometry/build_cache.py): the query is fast, but
+importing scipy for it costs a start 0.45 s, and the grouping kernel's first launch 50 ms.
 
 Departure from the paper (docs/decisions.md): with the members' free faces given, the sphere's
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
@@ -36,9 +36,9 @@ from geometry.boundary_groups import greedy_groups
 DEFAULT_GROUP_SIZE = 4  # particles per boundary sphere (the paper's sampling size n)
 DEFAULT_REACH = 4.0  # candidate members lie within this many particle radii of the seed (n = 4)
 PARALLEL_QUERY = 2000  # surface particles of a body from which its nearest-neighbour query uses every core
-# the candidate search's version in the cache keys: raise it when `_query_candidates` answers the same input
-# differently, so that cached answers of the old search are not read
-CANDIDATES_VERSION = 1
+# the grouping's version in the cache keys: raise it when `_group_ids` (the Morton order, the candidate
+# search or the grouping rule) answers the same input differently, so that cached groups are not read
+GROUPS_VERSION = 1
 
 
 @dataclass
@@ -76,28 +76,30 @@ def _morton_order(points: np.ndarray, first: np.ndarray, body_of: np.ndarray, bi
     return np.lexsort((key, body_of))
 
 
-def _candidates(points, rad, body_of, k: int, reach: float, cache: bool):
-    """`_query_candidates`, read from the disk cache when `cache` (a whole object's build)."""
+def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache: bool) -> np.ndarray:
+    """(n,) group id of each row: the greedy grouping (geometry.boundary_groups) of the rows in Morton
+    order over their candidates; read from the disk cache when `cache` (a whole object's build)."""
+
+    def group() -> np.ndarray:
+        near, ok = _query_candidates(points, rad, body_of, min(len(points), 3 * group_size), reach)
+        return greedy_groups(_morton_order(points, first, body_of), near, ok, group_size, 0)[0]
+
     if not cache:
-        return _query_candidates(points, rad, body_of, k, reach)
+        return group()
     from importlib.metadata import version
 
     from geometry.build_cache import cached_arrays, digest
 
-    n = len(points)
-    points, rad, body_of = np.asarray(points, np.float64), np.asarray(rad, np.float64), np.asarray(body_of, np.int64)
-    key = digest("boundary-candidates", f"{CANDIDATES_VERSION} scipy {version('scipy')}",
-                 points.tobytes() + rad.tobytes() + body_of.tobytes(), k=int(k), reach=float(reach))
-
-    def query() -> dict:
-        return dict(zip(("near", "ok"), _query_candidates(points, rad, body_of, k, reach)))
+    inputs = b"".join(np.asarray(a, t).tobytes() for a, t in ((points, np.float64), (rad, np.float64),
+                                                              (body_of, np.int64)))
+    key = digest("boundary-groups", f"{GROUPS_VERSION} scipy {version('scipy')}", inputs, group_size=int(group_size),
+                 reach=float(reach))
 
     def valid(hit: dict) -> bool:
-        near, ok = hit["near"], hit["ok"]
-        return near.shape == ok.shape == (n, k) and ok.dtype == bool and (n == 0 or 0 <= near.min() <= near.max() < n)
+        gid = hit["gid"]
+        return gid.shape == (len(points),) and (len(gid) == 0 or (gid.min() >= 0 and bool(np.all(np.bincount(gid)))))
 
-    got = cached_arrays("boundary", key, ("near", "ok"), query, valid)
-    return got["near"].astype(np.intp), got["ok"]
+    return cached_arrays("boundary", key, ("gid",), lambda: dict(gid=group()), valid)["gid"].astype(np.int64)
 
 
 def _query_candidates(points, rad, body_of, k, reach):
@@ -154,9 +156,7 @@ def build_boundary_particles(
     rows = idx[np.argsort(body[idx], kind="stable")]  # each body's surface particles together, ascending
     first, body_of = _by_body(body[rows])
     pts = centroid[rows]
-    order = _morton_order(pts, first, body_of)
-    near, ok = _candidates(pts, radius[rows], body_of, min(len(rows), 3 * group_size), reach, cache)
-    gid = greedy_groups(order, near, ok, group_size, 0)[0]  # bodies in turn: ids count up body by body
+    gid = _group_ids(pts, radius[rows], body_of, first, group_size, reach, cache)  # ids count up body by body
     members = rows[np.argsort(gid, kind="stable")]
     g = np.sort(gid)
     start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)  # every group id has members

@@ -67,6 +67,13 @@ def greedy_groups(order: np.ndarray, near: np.ndarray, ok: np.ndarray, group_siz
     return gid.astype(np.int64), int(nxt[0])
 
 
+def warm_up() -> None:
+    """Launch the grouping kernel on nothing: it compiles, for sim/warm_up.py, before an event needs it
+    (a run's build reads its objects' groups from the disk cache)."""
+    nothing = np.zeros((0, 1), np.int64)
+    greedy_groups(nothing[:, 0], nothing, nothing.astype(bool), 1, 0)
+
+
 def greedy_groups_reference(order, near, ok, group_size: int, first_id: int) -> tuple[np.ndarray, int]:
     """The same rule as a Python loop: the specification the kernel is tested against, and what
     runs while Taichi has not been started (geometry alone starts no Taichi)."""

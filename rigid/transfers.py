@@ -5,7 +5,6 @@ bodies."""
 import taichi as ti
 
 from rigid.kernel_math import (
-    is_active,
     vec3,
     vec4,
 )
@@ -212,13 +211,3 @@ def k_wake(s: ti.template(), ids: ti.types.ndarray(), n: ti.i32):
         if s.body_alive[b] == 1 and s.body_static[b] == 0 and s.body_asleep[b] == 1:
             s.body_asleep[b] = 0
             s.body_sleep_time[b] = 0.0
-
-
-@ti.kernel
-def k_count_awake(s: ti.template(), nb: ti.i32) -> ti.i32:
-    """Bodies that are alive, dynamic and awake."""
-    n = 0
-    for b in range(nb):
-        if is_active(s, b):
-            n += 1
-    return n

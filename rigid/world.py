@@ -398,9 +398,10 @@ class RigidWorld(HostSync):
         )
 
     # ------------------------------------------------------------------ reading
-    def awake_bodies(self) -> int:
-        """Dynamic bodies not asleep (one kernel; no download of the body state)."""
-        return int(transfers.k_count_awake(self._s, self._nb)) if self._nb else 0
+    def awake_bodies(self, state: BodyState | None = None) -> int:
+        """Dynamic bodies alive and awake, counted on the body state (downloaded unless given; no kernel)."""
+        st = state or self._download_bodies(self._nb)
+        return int(np.count_nonzero(st.alive & ~st.asleep & ~np.asarray(self._hb.static, dtype=bool)))
 
     def body_state(self) -> BodyState:
         """Numpy copy of every body's pose and velocity (index = body id)."""

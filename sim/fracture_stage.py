@@ -69,8 +69,11 @@ def warm_pieces(world) -> list:
     import importlib
     from functools import partial
 
+    from geometry.boundary_groups import warm_up as warm_grouping
+
     pieces = [partial(_library_import, m) for m in LIBRARY_IMPORTS]
     pieces += [partial(importlib.import_module, m) for m in EVENT_MODULES]
+    pieces.append(warm_grouping)  # the new pieces' boundary spheres (a build reads its own from the cache)
     pieces += world.store.warm_pieces()
     if "rigid" in world.stages:
         pieces += world.rigid.warm_event_pieces()

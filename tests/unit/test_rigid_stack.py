@@ -45,6 +45,7 @@ def _stack(w, n, heavy_top, sleep):
 @pytest.mark.parametrize("n,heavy", [(5, False), (10, False), (5, True), (10, True)])
 def test_stack_stands_for_five_seconds_without_sleeping(world, n, heavy):
     drift, speed_end, pen, _asleep = _stack(world, n, heavy, sleep=False)
+    assert world.awake_bodies() == n
     assert drift < 1e-3
     assert speed_end < 0.01
     assert pen < 0.5 * R_SPHERE
@@ -56,3 +57,8 @@ def test_heavy_ten_stack_settles_and_sleeps(world):
     assert speed_end < 0.01
     assert pen < 0.5 * R_SPHERE
     assert asleep.all()
+    assert world.awake_bodies() == 0
+    world.wake([3])
+    assert world.awake_bodies() == 1
+    add_box_body(world, [HALF] * 3, 1000.0, x=(1.0, HALF, 0.0), sphere_radius=R_SPHERE, static=True)
+    assert world.awake_bodies() == 1  # a static body is never counted
