@@ -139,8 +139,8 @@ def build_boundary_particles(
     centroid (N,3) m, radius (N,) m, mass (N,) kg, body (N,) int: per particle;
     surface (N,) bool: which particles take part (surface particles of live bodies);
     rest_verts (N,4,3) m and free_faces (N,4) bool (faces on the surface): optional; when given,
-    spheres are pulled inside the surface (module docstring); cache: keep the candidate search's
-    result on disk (whole objects at their build, which the next run builds again).
+    spheres are pulled inside the surface (module docstring); cache: keep the groups on disk (whole
+    objects at their build, which the next run builds again).
     """
     if group_size < 1:
         raise ValueError(f"group_size must be >= 1, got {group_size}")

@@ -14,11 +14,12 @@ shape's accepted mesh is also kept under the shape's own state (geometry/tetrahe
 attributes, the source of shapes.py and occ_solids.py, the mesher's parameters and version and the
 quality bounds), so that a second build neither imports Netgen (0.15 s) nor makes the solid.
 
-The candidate search of a whole object's boundary spheres is a k-nearest query (scipy's cKDTree):
-the query takes milliseconds, but importing scipy.spatial takes 0.45 s, on the path to a run's first
-frame. An object's candidates are kept under a key of the exact points, radii, k and reach, scipy's
-version and the search's own version number, so a run whose objects were built before imports no
-scipy before its first frame (events, whose pieces are new every time, search without the cache).
+The grouping of a whole object's boundary spheres runs on a k-nearest query (scipy's cKDTree): the
+query takes milliseconds, but importing scipy.spatial takes 0.45 s, on the path to a run's first frame,
+and the grouping kernel's first launch 50 ms. An object's group ids are kept under a key of the exact
+points, radii, group size and reach, scipy's version and the grouping's own version number, so a run
+whose objects were built before imports no scipy before its first frame (events, whose pieces are new
+every time, group without the cache).
 WPCA kernels likewise (0.15 s for each of Pots' 13 pots, 1 s for the pet), with numpy's version.
 A miss is never wrong, only slower: anything a key leaves out must not change the result.
 

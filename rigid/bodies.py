@@ -138,7 +138,7 @@ def surface_mask(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) ->
 def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray, group_size: int,
                      cache: bool = False):
     """Boundary spheres (geometry.boundary) of each label's surface particles; body = label index;
-    `cache`: the candidate search through the disk cache (a whole object's build)."""
+    `cache`: the groups through the disk cache (a whole object's build)."""
     free = free_faces(particles, ids, labels)
     return build_boundary_particles(
         particles.centroid[ids],
@@ -173,7 +173,7 @@ def add_tet_body(
     The body starts at its rest pose moved by `offset` (m): body_x = ref_com + offset, rotated by q
     about its COM. Boundary spheres come from the surface particles with `group_size` n (Sect. 5.3),
     unless `spheres` = (centres in the reference frame (B,3) m, radii (B,) m) is given; `cache`: their
-    candidate search through the disk cache (geometry/build_cache.py: a scene's bodies at its build).
+    grouping through the disk cache (geometry/build_cache.py: a scene's bodies at its build).
     Sets particles.body[particle_ids] to the new id.
     """
     ids = (
