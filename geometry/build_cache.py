@@ -1,5 +1,5 @@
 """A disk cache of build results that are slow to recompute, keyed by their input: the kept mesher's
-raw output (Sect. 5.1's tetrahedralization), the boundary spheres' candidate neighbours (Sect. 5.3,
+raw output (Sect. 5.1's tetrahedralization), the boundary spheres' groups (Sect. 5.3,
 geometry/boundary.py) and WPCA kernels (Sect. 4.1, sph/kernel.py).
 
 Netgen is deterministic, so the tets of one solid at one size never change; meshing them again costs
@@ -47,7 +47,7 @@ CACHE_ENV = "ANISOFRAC_CACHE_DIR"
 
 
 def cache_dir(kind: str = "tets") -> Path | None:
-    """The folder that holds cached entries of `kind` ("tets", "boundary"), or None when the cache is off."""
+    """The folder that holds cached entries of `kind` ("tets", "boundary", "kernels"), or None when off."""
     root = os.environ.get(CACHE_ENV)
     if root is not None:
         return None if root.strip().lower() in ("", "off", "0", "none") else Path(root) / kind
@@ -111,7 +111,8 @@ def cached_arrays(kind: str, key: str, names: tuple[str, ...], compute: Callable
     return arrays
 
 
-def _tets_valid(hit: dict[str, np.ndarray]) -> bool:
+def tets_valid(hit: dict[str, np.ndarray]) -> bool:
+    """An entry's `verts` (V, 3) and `tets` (T >= 1, 4) whose indices are vertices."""
     verts, tets = hit["verts"], hit["tets"]
     if verts.ndim != 2 or verts.shape[1] != 3 or tets.ndim != 2 or tets.shape[1] != 4 or len(tets) == 0:
         return False
@@ -120,8 +121,9 @@ def _tets_valid(hit: dict[str, np.ndarray]) -> bool:
 
 def cached_tets(key: str, mesh: Callable[[], tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
     """The (verts (V, 3) m, tets (T, 4)) stored under `key`, or `mesh()`'s, stored for the next time."""
-    got = cached_arrays("tets", key, ("verts", "tets"), lambda: dict(zip(("verts", "tets"), mesh())), _tets_valid)
+    got = cached_arrays("tets", key, ("verts", "tets"), lambda: dict(zip(("verts", "tets"), mesh())), tets_valid)
     return got["verts"].astype(np.float64), got["tets"].astype(np.int64)
 
 
-__all__ = ["CACHE_ENV", "cache_dir", "cache_key", "cached_arrays", "cached_tets", "digest", "mesher_version"]
+__all__ = ["CACHE_ENV", "cache_dir", "cache_key", "cached_arrays", "cached_tets", "digest", "mesher_version",
+           "tets_valid"]

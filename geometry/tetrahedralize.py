@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import ConfigError, MeshError
-from geometry.build_cache import cached_arrays, digest, mesher_version
+from geometry.build_cache import cached_arrays, digest, mesher_version, tets_valid
 from geometry.layered_delaunay import layered_delaunay
 from geometry.netgen_mesher import CURVATURE_SAFETY, GRADING, SolidMesher, mesh_surface
 from geometry.occ_solids import has_occ_solid, occ_solid
@@ -109,17 +109,15 @@ def _mesh_exact_solid(shape, h: float, name: str):
     The accepted try is kept in the build cache under the shape's own state (`_solid_key`), so a second
     build reads it without importing Netgen (0.15 s) or making the solid; a first one meshes as before
     (each try through the tet cache keyed by the solid's BRep)."""
-    found = {}
 
     def mesh_solid() -> dict:
         solid = occ_solid(shape)
         mesher = SolidMesher(solid, h, name)
         for k, safety in enumerate(CURVATURE_SAFETY):
             verts, tets = mesher.mesh(safety)
-            found["result"] = _finish(shape, verts, tets.copy(), name, float(solid.mass),  # Netgen's own kept
-                                      dict(mesher="netgen (exact solid)", curvature_safety=safety), h)
+            _, report = _finish(shape, verts, tets.copy(), name, float(solid.mass), {}, h)  # Netgen's own kept
             try:
-                check_quality(found["result"][1], name)
+                check_quality(report, name)
             except MeshError:
                 if k == len(CURVATURE_SAFETY) - 1:
                     raise
@@ -127,19 +125,12 @@ def _mesh_exact_solid(shape, h: float, name: str):
             return dict(verts=verts, tets=tets, safety=np.float64(safety), volume=np.float64(solid.mass))
 
     def valid(hit: dict) -> bool:
-        v, t = hit["verts"], hit["tets"]
-        return (v.ndim == 2 and v.shape[1:] == (3,) and t.ndim == 2 and t.shape[1:] == (4,) and len(t) > 0
-                and 0 <= t.min() <= t.max() < len(v) and float(hit["safety"]) in CURVATURE_SAFETY
-                and float(hit["volume"]) > 0.0)
+        return tets_valid(hit) and float(hit["safety"]) in CURVATURE_SAFETY and float(hit["volume"]) > 0.0
 
     got = cached_arrays("tets", _solid_key(shape, h), ("verts", "tets", "safety", "volume"), mesh_solid, valid)
-    if "result" in found:
-        return found["result"]
     extras = dict(mesher="netgen (exact solid)", curvature_safety=float(got["safety"]))
-    mesh, report = _finish(shape, got["verts"].astype(np.float64), got["tets"].astype(np.int64), name,
-                           float(got["volume"]), extras, h)
-    check_quality(report, name)
-    return mesh, report
+    return _finish(shape, got["verts"].astype(np.float64), got["tets"].astype(np.int64), name,
+                   float(got["volume"]), extras, h)
 
 
 def _mesh(shape, h: float, name: str, seed: int, layer_axis, layer_spacing):

@@ -398,9 +398,9 @@ class RigidWorld(HostSync):
         )
 
     # ------------------------------------------------------------------ reading
-    def awake_bodies(self, state: BodyState | None = None) -> int:
-        """Dynamic bodies alive and awake, counted on the body state (downloaded unless given; no kernel)."""
-        st = state or self._download_bodies(self._nb)
+    def awake_bodies(self) -> int:
+        """Dynamic bodies alive and awake, counted on the downloaded body state (no kernel of its own)."""
+        st = self._download_bodies(self._nb)
         return int(np.count_nonzero(st.alive & ~st.asleep & ~np.asarray(self._hb.static, dtype=bool)))
 
     def body_state(self) -> BodyState:
