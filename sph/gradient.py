@@ -8,7 +8,6 @@ vectorised over a padded (member, neighbour) layout in blocks that run on the ho
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from core.errors import ConfigError
 from core.host_threads import ordered_map
@@ -26,6 +25,10 @@ BIN_MEMBERS = 64  # members per bin at least: a small neighbourhood is searched 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
     """Pairs (e, j) with member members[e] and local particle j != it, |G_i (x_j - x_i)| < 1
     (gather with the member's own kernel, as sph/neighbours.py). Returns (owner e, index j), sorted."""
+    if kernels_run():
+        return _pairs_by_kernel(x, G, members, local)
+    from scipy.spatial import cKDTree  # here, not at import: a run's start imports no scipy (geometry/build_cache.py)
+
     Gm = G[members]
     rho = 1.0 / np.linalg.eigvalsh(Gm)[:, 0]  # support radius: |G (x_j - x_i)| < 1 needs |x_j - x_i| < rho
     tl = cKDTree(x[local])
@@ -51,6 +54,26 @@ def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np
     bins = np.array_split(np.argsort(rho, kind="stable"), max(1, min(RADIUS_BINS, members.size // BIN_MEMBERS)))
     key = np.sort(np.concatenate(ordered_map(pairs_of, bins)))  # by (e, j)
     return key // n, key % n
+
+
+def kernels_run() -> bool:
+    """Whether the neighbour test and the gradient's sums run as Taichi kernels (sph/gradient_kernels.py):
+    on a started CPU runtime. Before Taichi starts, and on CUDA (float64 local matrices fail there,
+    docs/decisions.md "CUDA and f64"), the numpy code below runs: the same sums in another order."""
+    from core.runtime import runtime, taichi_started
+
+    return taichi_started() and runtime().arch == "cpu"
+
+
+def _pairs_by_kernel(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
+    """`neighbour_pairs` by one kernel over every (member, local particle): a mask, read row by row."""
+    from sph import gradient_kernels as gk
+
+    local = np.sort(local)  # the mask's rows list neighbours in this order: sorted by (e, j) as the numpy path
+    mask = np.empty((members.size, local.size), np.uint8)
+    gk.k_pair_mask(gk.f64(x[members]), gk.f64(G[members]), gk.i32(members), gk.f64(x[local]), gk.i32(local), mask)
+    e, k = np.nonzero(mask)
+    return e.astype(np.int64), local[k].astype(np.int64)
 
 
 def _quad_basis(X: np.ndarray) -> np.ndarray:
@@ -88,10 +111,12 @@ def sph_gradient(
         return np.zeros((m, 3, 3)), used
     cnt = np.bincount(owner, minlength=m)
     start = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)  # pairs of member e: start[e]..start[e+1]
-    K = int(cnt.max())
     Gm = G[members]
     det = np.linalg.det(Gm)
     srad = 1.0 / np.linalg.eigvalsh(Gm)[:, 0] if order == 2 else None  # support radius: scales the basis
+    if kernels_run():
+        return _gradient_by_kernels(x, volume, u, members, nbr, order, cnt, start, Gm, GRAD_NORM * det, srad)
+    K = int(cnt.max())
     grad = np.empty((m, 3, 3))
     # members in blocks of about PAD_SLOTS padded slots, every block padded to the same width K (so
     # each member's sums are the same arithmetic as in one block): a neighbourhood that holds a whole
@@ -138,30 +163,70 @@ def _block_gradient(order: int, K: int, owner, slot, xi, g, k, vol, du, cnt, sra
     def rows(a: np.ndarray, sel: np.ndarray) -> np.ndarray:
         return a if sel.all() else a[sel]  # every member selected (the usual case): no copy
 
-    # members whose quadratic fit is taken (order 2, at least 9 neighbours for the 9 monomials); the
-    # others take Bonet-Lok (order >= 1) or plain SPH weights
-    quad = cnt >= QUAD_MIN if order == 2 else np.zeros(m, dtype=bool)
+    quad = _fitted(order, cnt)
     rest = ~quad
     d = np.empty((m, K, 3))
     if rest.any():
         Vg = rows(pad(vol[:, None] * g), rest)  # plain SPH weights V_j grad W (Eq. 7, 10)
         d[rest] = Vg
         if order >= 1:
-            Bm = np.matmul(Vg.transpose(0, 2, 1), rows(pad(xi), rest))  # sum_j V_j grad W (x) xi
-            scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
-            det = np.linalg.det(Bm)
-            ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
-            L = np.tile(np.eye(3), (len(Bm), 1, 1))
-            if ok.any():
-                L[ok] = np.linalg.inv(Bm[ok])
+            L, ok = _bonet_lok(np.matmul(Vg.transpose(0, 2, 1), rows(pad(xi), rest)))  # sum_j V_j grad W (x) xi
             used[np.flatnonzero(rest)[ok]] = 1
             d[rest] = np.matmul(Vg, L.transpose(0, 2, 1))  # d_ij = L_i V_j grad W
     if quad.any():
         w = rows(pad(vol * k), quad)  # WLS weights V_j k_ij (the weights Bonet-Lok implies)
         pb = rows(pad(_quad_basis(xi / srad[owner, None])), quad)  # (q, K, 9)
         Mq = np.matmul(pb.transpose(0, 2, 1), w[:, :, None] * pb)
-        Mi = np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
+        Mi = _pinv(Mq)
         d[quad] = np.matmul(pb, Mi[:, :, :3]) * (w / srad[quad, None])[:, :, None]  # the linear terms
         used[quad] = 2
     grad = np.matmul(pad(du).transpose(0, 2, 1), d)  # sum_j (u_j - u_i) (x) d_ij
+    return grad, used
+
+
+def _fitted(order: int, cnt: np.ndarray) -> np.ndarray:
+    """Members whose quadratic fit is taken (order 2, at least 9 neighbours for the 9 monomials); the
+    others take Bonet-Lok (order >= 1) or plain SPH weights."""
+    return cnt >= QUAD_MIN if order == 2 else np.zeros(cnt.size, dtype=bool)
+
+
+def _bonet_lok(Bm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bonet-Lok's L_i = B_i^-1 of (M,3,3) sums B_i, where B_i is far enough from singular (else I), and
+    which were inverted."""
+    scale = np.sqrt((Bm * Bm).sum(axis=(1, 2)) / 3.0)
+    det = np.linalg.det(Bm)
+    ok = (scale > 0.0) & (np.abs(det) > DET_TOL * scale**3)
+    L = np.tile(np.eye(3), (len(Bm), 1, 1))
+    if ok.any():
+        L[ok] = np.linalg.inv(Bm[ok])
+    return L, ok
+
+
+def _pinv(Mq: np.ndarray) -> np.ndarray:
+    """The quadratic fit's (q,9,9) moment matrices, pseudo-inverted with the relative rank cut QUAD_RCOND."""
+    return np.linalg.pinv(Mq, rcond=QUAD_RCOND, hermitian=True)
+
+
+def _gradient_by_kernels(x, volume, u, members, nbr, order: int, cnt, start, Gm, coef, srad) -> tuple:
+    """`sph_gradient` as two kernel passes over each member's pairs (sph/gradient_kernels.py) with the
+    corrections inverted by numpy between them: the same weights, sums in pair order."""
+    from sph import gradient_kernels as gk
+
+    m = members.size
+    quad = _fitted(order, cnt)
+    common = (gk.f64(x), gk.f64(volume), gk.i32(members), gk.f64(Gm), gk.f64(coef),
+              gk.f64(np.ones(m) if srad is None else srad), gk.i32(start), gk.i32(nbr), gk.i32(quad))
+    moments, B = np.zeros((m, 9, 9)), np.zeros((m, 3, 3))
+    gk.k_correction_sums(*common, moments, B)
+    used = np.where(quad, 2, 0).astype(np.int64)
+    Minv = np.zeros((m, 9, 3))
+    if quad.any():
+        Minv[quad] = _pinv(moments[quad])[:, :, :3]
+    L = np.tile(np.eye(3), (m, 1, 1))  # plain SPH weights: d_ij = V_j grad W
+    rest = np.flatnonzero(~quad)
+    if order >= 1 and rest.size:
+        L[rest], ok = _bonet_lok(B[rest])
+        used[rest[ok]] = 1
+    grad = np.empty((m, 3, 3))
+    gk.k_gradient_sums(gk.f64(x), gk.f64(volume), gk.f64(u), *common[2:], Minv, L, grad)
     return grad, used

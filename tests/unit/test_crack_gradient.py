@@ -142,6 +142,7 @@ def test_blocks_of_members_give_the_same_bits(monkeypatch):
     for bit (every block is padded to the same width, so each member's sums are the same arithmetic)."""
     import sph.gradient as gradient
 
+    monkeypatch.setattr(gradient, "kernels_run", lambda: False)  # the numpy path, where blocks exist
     obj = build_object("box", shape_params=dict(size=[0.06, 0.06, 0.03]), resolution=0.006)
     x, V = obj.particles.centroid, obj.particles.volume
     G = np.broadcast_to(kernel_isotropic(2.5 * 0.006), (len(x), 3, 3))
@@ -155,3 +156,39 @@ def test_blocks_of_members_give_the_same_bits(monkeypatch):
     for other in out[1:]:
         for (g0, u0), (g1, u1) in zip(out[0], other):
             assert np.array_equal(g0, g1) and np.array_equal(u0, u1)
+
+
+def test_kernels_give_the_numpy_sums(monkeypatch):
+    """The Taichi kernels (sph/gradient_kernels.py) find the numpy path's pairs exactly and its gradients
+    to float64 rounding, in every branch: quadratic fits, Bonet-Lok and plain weights where a member has
+    too few neighbours for a fit or a singular moment, stretched kernels of two sizes."""
+    import sph.gradient as gradient
+
+    assert gradient.kernels_run()  # the suite runs on a started CPU runtime
+    obj = build_object("box", shape_params=dict(size=[0.06, 0.06, 0.03]), resolution=0.005)
+    x, V = obj.particles.centroid, obj.particles.volume
+    scale = np.where(np.arange(len(x)) % 3 == 0, 1.3, 1.0)[:, None, None]  # mixed support radii
+    G = kernel_isotropic(2.5 * 0.005) * np.diag([1.0, 0.5, 1.0]) / scale
+    u = np.sin(40.0 * x) * 1e-6  # m: a smooth non-linear displacement
+    mem = np.arange(0, len(x), 2)
+    # neighbours dense where x < 0 (fits), every 9th up to 0.015 m (too few for a fit: Bonet-Lok), every
+    # 61st beyond (one or two: a singular B, plain weights)
+    k = np.arange(len(x))
+    local = np.flatnonzero((x[:, 0] < 0.0) | ((x[:, 0] < 0.015) & (k % 9 == 0)) | (k % 61 == 0))
+
+    def both(fn, *args):
+        with monkeypatch.context() as m:
+            m.setattr(gradient, "kernels_run", lambda: False)
+            ref = fn(*args)
+        return fn(*args), ref
+
+    pairs, pairs_ref = both(gradient.neighbour_pairs, x, G, mem, local)
+    assert all(np.array_equal(a, b) for a, b in zip(pairs, pairs_ref))
+    seen = set()
+    for order in (0, 1, 2):
+        (g, used), (g_ref, used_ref) = both(gradient.sph_gradient, x, V, G, u, mem, *pairs, order)
+        assert np.array_equal(used, used_ref)
+        seen |= {(order, int(k)) for k in np.unique(used)}
+        scale_m = np.abs(g_ref).max(axis=(1, 2), keepdims=True)  # each member's own magnitude
+        assert np.all(np.abs(g - g_ref) <= 1e-9 * scale_m)
+    assert {(0, 0), (1, 0), (1, 1), (2, 1), (2, 2)} <= seen  # every branch ran
