@@ -70,6 +70,7 @@ def rel_l2(grad: np.ndarray, exact: np.ndarray, w: np.ndarray) -> float:
 def run(quick: bool, only: str | None = None) -> dict:
     from sph.contact import boussinesq_displacement, boussinesq_gradient
     from sph.cracks import neighbour_pairs, sph_gradient
+    from sph.gradient import kernels_run
 
     x, vol = particles()
     n = len(x)
@@ -106,8 +107,9 @@ def run(quick: bool, only: str | None = None) -> dict:
                     err_boussinesq=rel_l2(grad_bq, g_bq, w), ms=1e3 * best,
                 ))
         print(f"gradient f={f}: done", flush=True)
-    return dict(study="gradient", quick=quick, particles=n, analysed=int(members.size), spacing_mm=1e3 * spacing,
-                rows=rows)
+    path = "Taichi kernels on the CPU" if kernels_run() else "host numpy"
+    return dict(study="gradient", quick=quick, path=path, particles=n, analysed=int(members.size),
+                spacing_mm=1e3 * spacing, rows=rows)
 
 
 def render(res: dict, out: Path) -> str:
@@ -176,7 +178,7 @@ order 0 (plain Eq. 7), 1 (Bonet-Lok), 2 (quadratic least squares; the project's 
 kernel I/h or anisotropic kernel (tilted axes, semi-axes h x (1.6, 1, 0.625), same support volume)
 x support h (a multiple of the spacing, hence the neighbour count). **Measured**: volume-weighted
 relative L2 error of grad u over the analysed set; time of one analysis (neighbour pairs + gradients
-of all analysed particles, `sph.cracks.neighbour_pairs` + `sph_gradient`, host numpy, best of
+of all analysed particles, `sph.cracks.neighbour_pairs` + `sph_gradient`, {res.get('path', 'host numpy')}, best of
 {1 if res['quick'] else 3}). `at this order`: share of particles whose neighbourhood allowed the requested
 correction (the others fall back to a lower order). Code: `bench/study_gradient.py`.
 

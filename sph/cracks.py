@@ -1,7 +1,8 @@
 """Crack generation at an impact: the paper's Algorithm 1 (Sect. 4.2, Fig. 2, Eq. 1, 7, 8, 11, U_limit).
 
 `analyse_impact` runs one analysis on the host (numpy, float64; the neighbourhood is tens to a few
-hundred particles, everything is vectorised, no Python loop per particle). Its steps are functions
+hundred particles, everything is vectorised, no Python loop per particle; Eq. 7's neighbour test and
+sums are float64 Taichi kernels on the CPU backend, sph/gradient_kernels.py). Its steps are functions
 of sph/algorithm1.py named after the paper's lines; the struck wall is sph/struck_wall.py, Eq. 7
 is sph/gradient.py, cracks that reach another material are sph/crossings.py. The steps:
 

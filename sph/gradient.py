@@ -1,8 +1,10 @@
 """The SPH displacement gradient of Algorithm 1 (paper Eq. 7, 10): grad u_i = sum_j (u_j - u_i) (x) d_ij
 over each member's own anisotropic kernel (Eq. 4), plain, with the Bonet-Lok correction, or by a
-quadratic weighted least-squares fit (the default; docs/notes_cracks.md says why). Host numpy,
-vectorised over a padded (member, neighbour) layout in blocks that run on the host's cores
-(core/host_threads.py); no Python loop per particle.
+quadratic weighted least-squares fit (the default; docs/notes_cracks.md says why). On a started CPU
+runtime the neighbour test and the per-member sums are Taichi kernels (sph/gradient_kernels.py; the
+corrections are inverted here, by numpy, between the two sums). Otherwise (before Taichi starts, and
+on CUDA) host numpy, vectorised over a padded (member, neighbour) layout in blocks that run on the
+host's cores (core/host_threads.py); no Python loop per particle either way.
 """
 
 from __future__ import annotations
