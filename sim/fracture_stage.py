@@ -71,12 +71,12 @@ def warm_pieces(world) -> list:
 
     from geometry.boundary_groups import warm_up as warm_grouping
     from sph.gradient import kernels_run
-    from sph.gradient_kernels import warm_up as warm_gradient
+    from sph.gradient_kernels import warm_pieces as gradient_pieces
 
     pieces = [partial(_library_import, m) for m in LIBRARY_IMPORTS]
     pieces += [partial(importlib.import_module, m) for m in EVENT_MODULES]
     if kernels_run():
-        pieces.append(warm_gradient)  # the analysis' neighbour test and gradient sums
+        pieces += gradient_pieces()  # the analysis' neighbour test and Eq. 7 sums
     pieces.append(warm_grouping)  # the new pieces' boundary spheres (a build reads its own from the cache)
     pieces += world.store.warm_pieces()
     if "rigid" in world.stages:

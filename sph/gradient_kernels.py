@@ -22,7 +22,6 @@ nd_u8_2 = ti.types.ndarray(dtype=ti.u8, ndim=2)
 vec3_64 = ti.types.vector(3, ti.f64)
 vec9_64 = ti.types.vector(9, ti.f64)
 mat3_64 = ti.types.matrix(3, 3, ti.f64)
-mat93_64 = ti.types.matrix(9, 3, ti.f64)
 mat99_64 = ti.types.matrix(9, 9, ti.f64)
 
 
@@ -67,7 +66,10 @@ def k_pair_mask(xm: nd_f64_2, Gm: nd_f64_3, im: nd_i32_1, xl: nd_f64_2, il: nd_i
 def k_correction_sums(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_3, coef: nd_f64_1, srad: nd_f64_1,
                       start: nd_i32_1, nbr: nd_i32_1, quad: nd_i32_1, moments: nd_f64_3, B: nd_f64_3):
     """Per member: the quadratic fit's moment matrix sum_j w_j b_j b_j^T (w = V_j k_ij, b the monomials of
-    (x_j - x_i) / support radius) where quad[e], else the Bonet-Lok matrix sum_j V_j grad W (x) (x_j - x_i)."""
+    (x_j - x_i) / support radius) where quad[e], else the Bonet-Lok matrix sum_j V_j grad W (x) (x_j - x_i).
+    x (N,3) m, vol (N,) m^3; per member e of M: members (M,) rows of x, Gm (M,3,3) 1/m, coef (M,) = Eq. 4's
+    gradient constant x det G, srad (M,) m support radius, quad (M,) 1 where fitted; its pairs
+    nbr[start[e]:start[e+1]] (rows of x). Writes moments (M,9,9) and B (M,3,3)."""
     for e in range(members.shape[0]):
         i = members[e]
         G = _mat3(Gm, e)
@@ -76,12 +78,15 @@ def k_correction_sums(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_
             for p in range(start[e], start[e + 1]):
                 j = nbr[p]
                 xi = _vec3(x, j) - _vec3(x, i)
-                k = _kernel_factor(G @ xi, coef[e])
                 b = _quad_basis(xi / srad[e])
-                acc += (vol[j] * k) * b.outer_product(b)
-            for a in ti.static(range(9)):
-                for c in ti.static(range(9)):
-                    moments[e, a, c] = acc[a, c]
+                w = vol[j] * _kernel_factor(G @ xi, coef[e])
+                for a in range(9):  # the upper triangle, in runtime loops: unrolled, the kernel took 0.24 s to load
+                    wa = w * b[a]
+                    for c in range(a, 9):
+                        acc[a, c] += wa * b[c]
+            for a in range(9):
+                for c in range(9):
+                    moments[e, a, c] = acc[ti.min(a, c), ti.max(a, c)]
         else:
             accB = mat3_64(0.0)
             for p in range(start[e], start[e + 1]):
@@ -100,14 +105,11 @@ def k_gradient_sums(x: nd_f64_2, vol: nd_f64_1, u: nd_f64_2, members: nd_i32_1, 
                     L: nd_f64_3, grad: nd_f64_3):
     """Eq. 7 per member: grad u_i = sum_j (u_j - u_i) (x) d_ij, with d_ij the quadratic fit's linear terms
     (Minv: the first 3 columns of the moment matrix's pseudo-inverse) where quad[e], else L V_j grad W
-    (L: Bonet-Lok's inverse, or I for the plain weights)."""
+    (L: Bonet-Lok's inverse, or I for the plain weights). u (N,3) m/N; Minv (M,9,3), L (M,3,3); the other
+    arguments as `k_correction_sums`. Writes grad (M,3,3)."""
     for e in range(members.shape[0]):
         i = members[e]
         G = _mat3(Gm, e)
-        Mi = mat93_64(0.0)
-        if quad[e] != 0:
-            for a, c in ti.static(ti.ndrange(9, 3)):
-                Mi[a, c] = Minv[e, a, c]
         Le = _mat3(L, e)
         acc = mat3_64(0.0)
         for p in range(start[e], start[e + 1]):
@@ -117,7 +119,11 @@ def k_gradient_sums(x: nd_f64_2, vol: nd_f64_1, u: nd_f64_2, members: nd_i32_1, 
             k = _kernel_factor(Gx, coef[e])
             d = vec3_64(0.0)
             if quad[e] != 0:
-                d = (Mi.transpose() @ _quad_basis(xi / srad[e])) * (vol[j] * k / srad[e])
+                b = _quad_basis(xi / srad[e])
+                for a in range(9):
+                    for c in ti.static(range(3)):
+                        d[c] += b[a] * Minv[e, a, c]
+                d *= vol[j] * k / srad[e]
             else:
                 d = Le @ (vol[j] * k * (G @ Gx))
             acc += (_vec3(u, j) - _vec3(u, i)).outer_product(d)
@@ -135,10 +141,11 @@ def i32(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int32)
 
 
-def warm_up() -> None:
-    """Launch the three kernels on nothing: they compile (sim/warm_up.py) before the first analysis."""
+def warm_pieces() -> list:
+    """Launchers of the three kernels on nothing, one piece each (each loads in 30-100 ms), so that they
+    compile (sim/warm_up.py) before the first analysis needs them."""
     f1, f2, f3, n = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, np.int32)
-    k_pair_mask(f2, f3, n, f2, n, np.zeros((0, 0), np.uint8))
     common = (f2, f1, n, f3, f1, f1, np.zeros(1, np.int32), n, n)
-    k_correction_sums(*common, np.zeros((0, 9, 9)), f3)
-    k_gradient_sums(f2, f1, f2, *common[2:], np.zeros((0, 9, 3)), f3, f3)
+    return [lambda: k_pair_mask(f2, f3, n, f2, n, np.zeros((0, 0), np.uint8)),
+            lambda: k_correction_sums(*common, np.zeros((0, 9, 9)), f3),
+            lambda: k_gradient_sums(f2, f1, f2, *common[2:], np.zeros((0, 9, 3)), f3, f3)]
