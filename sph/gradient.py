@@ -210,25 +210,28 @@ def _pinv(Mq: np.ndarray) -> np.ndarray:
 
 
 def _gradient_by_kernels(x, volume, u, members, nbr, order: int, cnt, start, Gm, coef, srad) -> tuple:
-    """`sph_gradient` as two kernel passes over each member's pairs (sph/gradient_kernels.py) with the
-    corrections inverted by numpy between them: the same weights, sums in pair order."""
+    """`sph_gradient` as kernel passes over each member's pairs (sph/gradient_kernels.py), the corrections'
+    sums first, inverted by numpy, then Eq. 7's: the same weights, summed in pair order."""
     from sph import gradient_kernels as gk
 
     m = members.size
     quad = _fitted(order, cnt)
-    common = (gk.f64(x), gk.f64(volume), gk.i32(members), gk.f64(Gm), gk.f64(coef),
-              gk.f64(np.ones(m) if srad is None else srad), gk.i32(start), gk.i32(nbr), gk.i32(quad))
-    moments, B = np.zeros((m, 9, 9)), np.zeros((m, 3, 3))
-    gk.k_correction_sums(*common, moments, B)
+    x, volume, members, Gm, coef = gk.f64(x), gk.f64(volume), gk.i32(members), gk.f64(Gm), gk.f64(coef)
+    srad = gk.f64(np.ones(m) if srad is None else srad)
+    pairs = (gk.i32(start), gk.i32(nbr), gk.i32(quad))
     used = np.where(quad, 2, 0).astype(np.int64)
     Minv = np.zeros((m, 9, 3))
     if quad.any():
+        moments = np.zeros((m, 9, 9))
+        gk.k_fit_moments(x, volume, members, Gm, coef, srad, *pairs, moments)
         Minv[quad] = _pinv(moments[quad])[:, :, :3]
     L = np.tile(np.eye(3), (m, 1, 1))  # plain SPH weights: d_ij = V_j grad W
     rest = np.flatnonzero(~quad)
     if order >= 1 and rest.size:
+        B = np.zeros((m, 3, 3))
+        gk.k_bonet_lok_sums(x, volume, members, Gm, coef, *pairs, B)
         L[rest], ok = _bonet_lok(B[rest])
         used[rest[ok]] = 1
     grad = np.empty((m, 3, 3))
-    gk.k_gradient_sums(gk.f64(x), gk.f64(volume), gk.f64(u), *common[2:], Minv, L, grad)
+    gk.k_gradient_sums(x, volume, gk.f64(u), members, Gm, coef, srad, *pairs, Minv, L, grad)
     return grad, used

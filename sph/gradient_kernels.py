@@ -1,5 +1,5 @@
 """The SPH gradient of Algorithm 1 (paper Eq. 4, 7, 10) as Taichi kernels: the neighbour test over
-each member's anisotropic support and, per member, the sums of the correction and of the gradient,
+each member's anisotropic support and, per member, the sums of the corrections and of the gradient,
 one member per loop iteration (sph/gradient.py decides when they run and inverts the corrections
 between the two sums with numpy, so the quadratic fit's rank cut is numpy's pseudo-inverse).
 
@@ -63,17 +63,18 @@ def k_pair_mask(xm: nd_f64_2, Gm: nd_f64_3, im: nd_i32_1, xl: nd_f64_2, il: nd_i
 
 
 @ti.kernel
-def k_correction_sums(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_3, coef: nd_f64_1, srad: nd_f64_1,
-                      start: nd_i32_1, nbr: nd_i32_1, quad: nd_i32_1, moments: nd_f64_3, B: nd_f64_3):
-    """Per member: the quadratic fit's moment matrix sum_j w_j b_j b_j^T (w = V_j k_ij, b the monomials of
-    (x_j - x_i) / support radius) where quad[e], else the Bonet-Lok matrix sum_j V_j grad W (x) (x_j - x_i).
-    x (N,3) m, vol (N,) m^3; per member e of M: members (M,) rows of x, Gm (M,3,3) 1/m, coef (M,) = Eq. 4's
-    gradient constant x det G, srad (M,) m support radius, quad (M,) 1 where fitted; its pairs
-    nbr[start[e]:start[e+1]] (rows of x). Writes moments (M,9,9) and B (M,3,3)."""
+def k_fit_moments(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_3, coef: nd_f64_1, srad: nd_f64_1,
+                  start: nd_i32_1, nbr: nd_i32_1, quad: nd_i32_1, moments: nd_f64_3):
+    """Per member where quad[e]: the quadratic fit's moment matrix sum_j w_j b_j b_j^T (w = V_j k_ij, b the
+    monomials of (x_j - x_i) / support radius). x (N,3) m, vol (N,) m^3; per member e of M: members (M,)
+    rows of x, Gm (M,3,3) 1/m, coef (M,) = Eq. 4's gradient constant x det G, srad (M,) m support
+    radius, quad (M,) 1 where fitted; its pairs nbr[start[e]:start[e+1]] (rows of x). Writes moments
+    (M,9,9) of those members. (The Bonet-Lok sums are a kernel of their own: each loads in under 0.1 s,
+    a warm-up piece that fits in a wait for a drawn frame.)"""
     for e in range(members.shape[0]):
-        i = members[e]
-        G = _mat3(Gm, e)
         if quad[e] != 0:
+            i = members[e]
+            G = _mat3(Gm, e)
             acc = mat99_64(0.0)
             for p in range(start[e], start[e + 1]):
                 j = nbr[p]
@@ -87,16 +88,25 @@ def k_correction_sums(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_
             for a in range(9):
                 for c in range(9):
                     moments[e, a, c] = acc[ti.min(a, c), ti.max(a, c)]
-        else:
-            accB = mat3_64(0.0)
+
+
+@ti.kernel
+def k_bonet_lok_sums(x: nd_f64_2, vol: nd_f64_1, members: nd_i32_1, Gm: nd_f64_3, coef: nd_f64_1,
+                     start: nd_i32_1, nbr: nd_i32_1, quad: nd_i32_1, B: nd_f64_3):
+    """Per member where not quad[e]: the Bonet-Lok matrix sum_j V_j grad W (x) (x_j - x_i), written to B
+    (M,3,3); the other arguments as `k_fit_moments`."""
+    for e in range(members.shape[0]):
+        if quad[e] == 0:
+            i = members[e]
+            G = _mat3(Gm, e)
+            acc = mat3_64(0.0)
             for p in range(start[e], start[e + 1]):
                 j = nbr[p]
                 xi = _vec3(x, j) - _vec3(x, i)
                 Gx = G @ xi
-                k = _kernel_factor(Gx, coef[e])
-                accB += (vol[j] * k * (G @ Gx)).outer_product(xi)
+                acc += (vol[j] * _kernel_factor(Gx, coef[e]) * (G @ Gx)).outer_product(xi)
             for a, c in ti.static(ti.ndrange(3, 3)):
-                B[e, a, c] = accB[a, c]
+                B[e, a, c] = acc[a, c]
 
 
 @ti.kernel
@@ -106,7 +116,7 @@ def k_gradient_sums(x: nd_f64_2, vol: nd_f64_1, u: nd_f64_2, members: nd_i32_1, 
     """Eq. 7 per member: grad u_i = sum_j (u_j - u_i) (x) d_ij, with d_ij the quadratic fit's linear terms
     (Minv: the first 3 columns of the moment matrix's pseudo-inverse) where quad[e], else L V_j grad W
     (L: Bonet-Lok's inverse, or I for the plain weights). u (N,3) m/N; Minv (M,9,3), L (M,3,3); the other
-    arguments as `k_correction_sums`. Writes grad (M,3,3)."""
+    arguments as `k_fit_moments`. Writes grad (M,3,3)."""
     for e in range(members.shape[0]):
         i = members[e]
         G = _mat3(Gm, e)
@@ -142,10 +152,10 @@ def i32(a) -> np.ndarray:
 
 
 def warm_pieces() -> list:
-    """Launchers of the three kernels on nothing, one piece each (each loads in 30-100 ms), so that they
+    """Launchers of the four kernels on nothing, one piece each (each loads in 30-90 ms), so that they
     compile (sim/warm_up.py) before the first analysis needs them."""
-    f1, f2, f3, n = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, np.int32)
-    common = (f2, f1, n, f3, f1, f1, np.zeros(1, np.int32), n, n)
+    f1, f2, f3, n, s1 = np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, np.int32), np.zeros(1, np.int32)
     return [lambda: k_pair_mask(f2, f3, n, f2, n, np.zeros((0, 0), np.uint8)),
-            lambda: k_correction_sums(*common, np.zeros((0, 9, 9)), f3),
-            lambda: k_gradient_sums(f2, f1, f2, *common[2:], np.zeros((0, 9, 3)), f3, f3)]
+            lambda: k_fit_moments(f2, f1, n, f3, f1, f1, s1, n, n, np.zeros((0, 9, 9))),
+            lambda: k_bonet_lok_sums(f2, f1, n, f3, f1, s1, n, n, f3),
+            lambda: k_gradient_sums(f2, f1, f2, n, f3, f1, f1, s1, n, n, np.zeros((0, 9, 3)), f3, f3)]
