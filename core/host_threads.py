@@ -1,7 +1,8 @@
 """Host numpy work on every core (issue 16: "parallelise across the two cores where it pays").
 
-The fracture analysis (Algorithm 1's neighbour search and Eq. 7, sph/gradient.py) is numpy and scipy
-work on independent blocks of particles; numpy's array loops, LAPACK and cKDTree release the GIL, so
+The numpy form of the fracture analysis' neighbour search and Eq. 7 (sph/gradient.py: where Taichi
+has not started, and on CUDA; a CPU run uses its kernels) is numpy and scipy work on independent
+blocks of particles; numpy's array loops, LAPACK and cKDTree release the GIL, so
 blocks run side by side on threads. `ordered_map(fn, items)` returns the results in the items' order
 and every block is the same arithmetic wherever it runs, so results never depend on the number of
 threads (tests/unit/test_host_threads.py). Taichi kernels are never launched from these threads.
