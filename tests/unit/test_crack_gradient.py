@@ -183,7 +183,9 @@ def test_kernels_give_the_numpy_sums(monkeypatch):
         return fn(*args), ref
 
     pairs, pairs_ref = both(gradient.neighbour_pairs, x, G, mem, local)
-    assert all(np.array_equal(a, b) for a, b in zip(pairs, pairs_ref))
+    assert all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(pairs, pairs_ref))
+    monkeypatch.setattr(gradient, "MASK_CELLS", 7 * local.size)  # members in chunks of 7: the same pairs
+    assert all(np.array_equal(a, b) for a, b in zip(gradient.neighbour_pairs(x, G, mem, local), pairs))
     seen = set()
     for order in (0, 1, 2):
         (g, used), (g_ref, used_ref) = both(gradient.sph_gradient, x, V, G, u, mem, *pairs, order)
@@ -192,3 +194,49 @@ def test_kernels_give_the_numpy_sums(monkeypatch):
         scale_m = np.abs(g_ref).max(axis=(1, 2), keepdims=True)  # each member's own magnitude
         assert np.all(np.abs(g - g_ref) <= 1e-9 * scale_m)
     assert {(0, 0), (1, 0), (1, 1), (2, 1), (2, 2)} <= seen  # every branch ran
+
+
+_THREADS_CHILD = """
+import sys
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from core.runtime import init_taichi
+init_taichi(arch="cpu", precision="f64", threads=2)
+from tests.unit.test_crack_gradient import _kernel_case
+np.savez(sys.argv[2], **_kernel_case())
+"""
+
+
+def _kernel_case() -> dict:
+    """Pairs and gradients (orders 0-2) of a stretched-kernel box by whatever path the runtime takes."""
+    import sph.gradient as gradient
+
+    obj = build_object("box", shape_params=dict(size=[0.05, 0.05, 0.03]), resolution=0.005)
+    x, V = obj.particles.centroid, obj.particles.volume
+    G = kernel_isotropic(2.5 * 0.005) * np.diag([1.0, 0.6, 1.0])
+    G = np.broadcast_to(G, (len(x), 3, 3)).copy()
+    u = np.sin(40.0 * x) * 1e-6  # m
+    mem = np.arange(0, len(x), 2)
+    owner, nbr = gradient.neighbour_pairs(x, G, mem, np.arange(len(x)))
+    out = dict(owner=owner, nbr=nbr)
+    for order in (0, 1, 2):
+        out[f"grad{order}"], out[f"used{order}"] = gradient.sph_gradient(x, V, G, u, mem, owner, nbr, order)
+    return out
+
+
+def test_kernels_give_the_same_bits_on_two_threads(tmp_path):
+    """With `--threads 2` the kernels' member loops run on Taichi's pool: each member's sums stay in one
+    thread in pair order, so a two-thread process gives this one-thread process's pairs and gradients
+    bit for bit (the README says results of the analysis do not depend on the thread count)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = tmp_path / "two_threads.npz"
+    subprocess.run([sys.executable, "-c", _THREADS_CHILD, str(root), str(out)], check=True, cwd=root, timeout=300,
+                   capture_output=True)
+    mine, theirs = _kernel_case(), np.load(out)
+    assert set(mine) == set(theirs.files)
+    for key, value in mine.items():
+        assert np.array_equal(value, theirs[key]), key
