@@ -190,7 +190,7 @@ def test_kernels_give_the_numpy_sums(monkeypatch):
     for order in (0, 1, 2):
         (g, used), (g_ref, used_ref) = both(gradient.sph_gradient, x, V, G, u, mem, *pairs, order)
         assert np.array_equal(used, used_ref)
-        seen |= {(order, int(k)) for k in np.unique(used)}
+        seen |= {(order, int(kind)) for kind in np.unique(used)}
         scale_m = np.abs(g_ref).max(axis=(1, 2), keepdims=True)  # each member's own magnitude
         assert np.all(np.abs(g - g_ref) <= 1e-9 * scale_m)
     assert {(0, 0), (1, 0), (1, 1), (2, 1), (2, 2)} <= seen  # every branch ran
