@@ -60,6 +60,12 @@ def apply_pseudo(s: ti.template(), c, imp):
 
 
 @ti.func
+def carries_impulse(s: ti.template(), c):
+    """Contact c holds a normal or a friction impulse (this substep's, or the warm start's)."""
+    return s.ct_ln[c] != 0.0 or s.ct_lt1[c] != 0.0 or s.ct_lt2[c] != 0.0
+
+
+@ti.func
 def rel_velocity(s: ti.template(), c):
     return point_velocity(s, s.ct_body_a[c], s.ct_ra[c]) - point_velocity(s, s.ct_body_b[c], s.ct_rb[c])
 
@@ -193,9 +199,14 @@ def k_substep(
         if is_active(s, b):
             body_forces(s, b, h, g, lin_damp, ang_damp, max_speed, max_rot)
     # warm start: re-apply the accumulated impulses (last substep's, or last step's matched contacts)
+    # Most contacts carry no impulse (the speculative ones, and the crack faces of a split's co-moving
+    # pieces, thousands of sphere pairs a piece): where an impulse is zero, applying it would only add
+    # zeros, so it is skipped, and so is the friction of a contact without normal or friction impulse
+    # (its cone is the point 0). Same velocities to the bit, up to the sign of a zero.
     ti.loop_config(serialize=True)
     for c in range(nc):
-        apply_impulse(s, c, s.ct_ln[c] * s.ct_n[c] + s.ct_lt1[c] * s.ct_t1[c] + s.ct_lt2[c] * s.ct_t2[c])
+        if carries_impulse(s, c):
+            apply_impulse(s, c, s.ct_ln[c] * s.ct_n[c] + s.ct_lt1[c] * s.ct_t1[c] + s.ct_lt2[c] * s.ct_t2[c])
     # velocity iterations: friction (cone clamp on the 2D tangent impulse), then the normal
     ti.loop_config(serialize=True)
     for it in range(vel_iters):
@@ -203,27 +214,29 @@ def k_substep(
             # symmetric Gauss-Seidel: alternate the sweep direction so that no contact order is favoured
             c = cc if (it + parity) % 2 == 0 else nc - 1 - cc
             n = s.ct_n[c]
-            t1 = s.ct_t1[c]
-            t2 = s.ct_t2[c]
-            dv = rel_velocity(s, c)
-            l1 = s.ct_lt1[c] - s.ct_mt1[c] * dv.dot(t1)
-            l2 = s.ct_lt2[c] - s.ct_mt2[c] * dv.dot(t2)
-            lim = s.ct_mu[c] * s.ct_ln[c]
-            mag = ti.sqrt(l1 * l1 + l2 * l2)
-            if mag > lim:
-                sc = lim / mag if mag > 0.0 else 0.0
-                l1 *= sc
-                l2 *= sc
-            apply_impulse(s, c, (l1 - s.ct_lt1[c]) * t1 + (l2 - s.ct_lt2[c]) * t2)
-            s.ct_lt1[c] = l1
-            s.ct_lt2[c] = l2
+            if carries_impulse(s, c):
+                t1 = s.ct_t1[c]
+                t2 = s.ct_t2[c]
+                dv = rel_velocity(s, c)
+                l1 = s.ct_lt1[c] - s.ct_mt1[c] * dv.dot(t1)
+                l2 = s.ct_lt2[c] - s.ct_mt2[c] * dv.dot(t2)
+                lim = s.ct_mu[c] * s.ct_ln[c]
+                mag = ti.sqrt(l1 * l1 + l2 * l2)
+                if mag > lim:
+                    sc = lim / mag if mag > 0.0 else 0.0
+                    l1 *= sc
+                    l2 *= sc
+                apply_impulse(s, c, (l1 - s.ct_lt1[c]) * t1 + (l2 - s.ct_lt2[c]) * t2)
+                s.ct_lt1[c] = l1
+                s.ct_lt2[c] = l2
             # normal: vn >= -gap/h while the gap is open (speculative), vn >= 0 when touching
             vn = rel_velocity(s, c).dot(n)
             bias = ti.max(current_gap(s, c), 0.0) / h
             ln = ti.max(s.ct_ln[c] - s.ct_mn[c] * (vn + bias), 0.0)
-            apply_impulse(s, c, (ln - s.ct_ln[c]) * n)
-            s.ct_ln[c] = ln
-            s.ct_lmax[c] = ti.max(s.ct_lmax[c], ln)
+            if ln != s.ct_ln[c]:
+                apply_impulse(s, c, (ln - s.ct_ln[c]) * n)
+                s.ct_ln[c] = ln
+                s.ct_lmax[c] = ti.max(s.ct_lmax[c], ln)
     for c in range(nc):
         s.ct_ltot[c] += s.ct_ln[c]
     for b in range(nb):
@@ -260,8 +273,9 @@ def correct_positions(
             target = ti.min(beta * ti.max(-current_gap(s, c) - slop, 0.0) / dt, max_corr)
             vpn = rel_pseudo_velocity(s, c).dot(n)
             lp = ti.max(s.ct_lp[c] + s.ct_mn[c] * (target - vpn), 0.0)
-            apply_pseudo(s, c, (lp - s.ct_lp[c]) * n)
-            s.ct_lp[c] = lp
+            if lp != s.ct_lp[c]:  # most contacts push nothing (k_substep's note)
+                apply_pseudo(s, c, (lp - s.ct_lp[c]) * n)
+                s.ct_lp[c] = lp
     for b in range(nb):
         if is_active(s, b):
             s.body_x[b] += dt * s.body_pv[b]
