@@ -96,6 +96,10 @@ class BodyState:
     alive: np.ndarray  # (NB,) bool
     sleep_time: np.ndarray | None = None  # (NB,) s: time spent below the sleep speeds
 
+    def copy(self) -> BodyState:
+        return BodyState(*(None if a is None else a.copy() for a in (self.x, self.q, self.v, self.w, self.asleep,
+                                                                       self.alive, self.sleep_time)))
+
 
 @dataclass
 class ContactEvents:

@@ -89,6 +89,7 @@ def rigid_step(world, dt: float, split: bool = True) -> None:
     parts = travel_splits(world, dt) if split else 1
     for _ in range(parts):
         _step(world, dt / parts)
+    world._forget_state()  # the bodies moved: the host's copy of their state is stale
 
 
 def _step(world, dt: float) -> None:

@@ -196,7 +196,7 @@ class RigidWorld(HostSync):
         ncol = old.cap_colliders if colliders <= old.cap_colliders else max(colliders, 2 * old.cap_colliders)
         nct = old.cap_contacts if contacts <= old.cap_contacts else max(contacts, 2 * old.cap_contacts)
         nct = max(nct, 4 * ns if ns > old.cap_spheres else nct)
-        state = self._download_bodies(self._nb)
+        state = self._state()
         prev = self._download_prev()
         self._s = acquire_store(nb, ns, ncol, nct)
         self._upload_bodies(0, self._nb, state)
@@ -332,11 +332,11 @@ class RigidWorld(HostSync):
             return
         if ids.min() < 0 or ids.max() >= self._nb:
             raise ConfigError("remove_bodies.ids", ids.tolist(), f"body ids in [0, {self._nb})")
-        st = self._download_bodies(self._nb)
+        st = self._state()
         self.wake_near(ids, state=st)
         fdt, zero3 = numpy_float(), np.zeros(3, numpy_float())
         for b in ids:  # at rest where it was, not alive
-            transfers.k_set_body_state(self._s, int(b), st.x[b].astype(fdt), st.q[b].astype(fdt), zero3, zero3, 0, 0)
+            self._write_body_state(int(b), st.x[b].astype(fdt), st.q[b].astype(fdt), zero3, zero3, 0, 0)
         prev = self._download_prev()
         keep = ~np.isin(self._sph_body, ids)
         old_to_new = np.full(self._ns, -1, np.int64)
@@ -352,7 +352,7 @@ class RigidWorld(HostSync):
         """Wake every body with a sphere within `pad` (default: the largest sphere diameter plus the
         speculative margin) of the spheres of bodies `ids`; returns the ids woken."""
         ids = np.asarray(ids, dtype=np.int64).reshape(-1)
-        st = state or self._download_bodies(self._nb)
+        st = state or self._state()
         if self._ns == 0:
             return np.zeros(0, np.int64)
         mine = np.isin(self._sph_body, ids)
@@ -376,40 +376,32 @@ class RigidWorld(HostSync):
         """Wake bodies (no effect on static, removed or awake ones)."""
         ids = np.ascontiguousarray(np.asarray(ids, dtype=np.int32).reshape(-1))
         if len(ids):
-            transfers.k_wake(self._s, ids, len(ids))
+            self._wake_bodies(ids)
 
     def set_body_state(self, body: int, x=None, q=None, v=None, w=None) -> None:
         """Overwrite the pose/velocity of a body between steps (wakes it)."""
-        st = self._download_bodies(self._nb)
+        st = self._state()
         fdt = numpy_float()
         x = st.x[body] if x is None else np.asarray(x, dtype=np.float64)
         q = st.q[body] if q is None else np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
         v = st.v[body] if v is None else np.asarray(v, dtype=np.float64)
         w = st.w[body] if w is None else np.asarray(w, dtype=np.float64)
-        transfers.k_set_body_state(
-            self._s,
-            int(body),
-            x.astype(fdt),
-            q.astype(fdt),
-            v.astype(fdt),
-            w.astype(fdt),
-            0,
-            int(st.alive[body]),
-        )
+        self._write_body_state(int(body), x.astype(fdt), q.astype(fdt), v.astype(fdt), w.astype(fdt), 0,
+                               int(st.alive[body]))
 
     # ------------------------------------------------------------------ reading
     def awake_bodies(self) -> int:
         """Dynamic bodies alive and awake, counted on the downloaded body state (no kernel of its own)."""
-        st = self._download_bodies(self._nb)
+        st = self._state()
         return int(np.count_nonzero(st.alive & ~st.asleep & ~np.asarray(self._hb.static, dtype=bool)))
 
     def body_state(self) -> BodyState:
         """Numpy copy of every body's pose and velocity (index = body id)."""
-        return self._download_bodies(self._nb)
+        return self._state().copy()
 
     def sphere_world(self, state: BodyState | None = None, spheres=None) -> np.ndarray:
         """(NS, 3) m: world centres of the boundary spheres (or of the indices `spheres`) at the current poses."""
-        st = state or self._download_bodies(self._nb)
+        st = state or self._state()
         sel = slice(None) if spheres is None else np.asarray(spheres, dtype=np.int64)
         b = self._sph_body[sel]
         rot = quat_to_matrix(st.q[: self._nb])[b]  # one matrix per body, gathered (Pots: 150 bodies, 50k spheres)
@@ -447,7 +439,7 @@ class RigidWorld(HostSync):
 
     def kinetic_energy(self, state: BodyState | None = None) -> float:
         """J: total kinetic energy of the dynamic bodies."""
-        st = state or self._download_bodies(self._nb)
+        st = state or self._state()
         e = 0.0
         for b in range(self._nb):
             if not st.alive[b] or self._hb.static[b]:
