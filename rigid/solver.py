@@ -202,7 +202,8 @@ def k_substep(
     # Most contacts carry no impulse (the speculative ones, and the crack faces of a split's co-moving
     # pieces, thousands of sphere pairs a piece): where an impulse is zero, applying it would only add
     # zeros, so it is skipped, and so is the friction of a contact without normal or friction impulse
-    # (its cone is the point 0). Same velocities to the bit, up to the sign of a zero.
+    # (its cone is the point 0). The same physics: what is skipped adds only zeros (LLVM's fast math
+    # compiles the friction block inside its branch otherwise, so the last bits differ from before).
     ti.loop_config(serialize=True)
     for c in range(nc):
         if carries_impulse(s, c):

@@ -395,9 +395,10 @@ class RigidWorld(HostSync):
         st = self._state()
         return int(np.count_nonzero(st.alive & ~st.asleep & ~np.asarray(self._hb.static, dtype=bool)))
 
-    def body_state(self) -> BodyState:
-        """Numpy copy of every body's pose and velocity (index = body id)."""
-        return self._state().copy()
+    def body_state(self, fresh: bool = False) -> BodyState:
+        """Numpy copy of every body's pose and velocity (index = body id). `fresh`: downloaded now, not
+        the copy kept since the last write (the guards look for values written to the store directly)."""
+        return self._download_bodies(self._nb) if fresh else self._state().copy()
 
     def sphere_world(self, state: BodyState | None = None, spheres=None) -> np.ndarray:
         """(NS, 3) m: world centres of the boundary spheres (or of the indices `spheres`) at the current poses."""

@@ -95,7 +95,7 @@ def _report(kind: str, bad: dict[str, np.ndarray], where: str, frame: int, step:
 
 def check_rigid(rigid, frame: int = -1, where: str = "") -> None:
     """Body poses and velocities of a RigidWorld are finite and the quaternions unit (alive bodies)."""
-    st = rigid.body_state()
+    st = rigid.body_state(fresh=True)  # what the store holds, however it was written
     if len(st.alive) == 0:
         return
     bad = {f"body_{k}": _bad_rows(getattr(st, k), st.alive) for k in ("v", "w", "x", "q")}
