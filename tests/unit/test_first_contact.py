@@ -1,7 +1,8 @@
 """rigid/first_contact.py: the earliest time any two things of a rigid world could touch, a lower
-bound from bounding spheres, speeds and gravity (sim/warm_up.py relies on it: kernels a contact
-needs must have compiled by then). Checked against free fall and uniform motion in closed form, and
-against the step itself: no contact is made before the bound."""
+bound from bounding spheres, then collision spheres, speeds, spins and gravity (sim/warm_up.py
+relies on it: kernels a contact needs must have compiled by then). Checked against free fall and
+uniform motion in closed form, the spheres' least gap against scipy's, and the step itself: no
+contact is made before the bound."""
 
 from __future__ import annotations
 
@@ -22,13 +23,20 @@ def _reach(w, b):
     return float(w.body_reach()[b])
 
 
-def test_a_body_dropped_on_the_floor_falls_freely_until_its_bounding_sphere_meets_it(fresh):
+def _lowest(w, b) -> float:
+    """m: the bottom of the body's lowest collision sphere, below its centre (unrotated)."""
+    local, radius, body = w.sphere_data()
+    return float((local[body == b][:, 1] - radius[body == b]).min())
+
+
+def test_a_body_dropped_on_the_floor_falls_freely_until_its_lowest_sphere_meets_it(fresh):
     w = fresh
     w.add_plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
     y0, v0 = 0.8, 0.5  # m, m/s (upwards: it rises first)
     b = add_box_body(w, HALF, 1000.0, x=(0.0, y0, 0.0), v=(0.0, v0, 0.0))
     margin = w.config.speculative_margin_m
-    gap = y0 - _reach(w, b) - margin
+    gap = y0 + _lowest(w, b) - margin
+    assert gap > y0 - _reach(w, b) - margin  # nearer than the bounding sphere's
     expected = (math.sqrt(v0 * v0 + 2.0 * G * gap) - v0) / G  # the speed |v| towards it, the whole way
     t = earliest_contact_s(w, w.config.gravity, margin)
     assert t == pytest.approx(expected, rel=1e-12)
@@ -47,7 +55,7 @@ def test_two_bodies_fall_together_and_close_at_their_relative_speed(fresh):
     margin = w.config.speculative_margin_m
     rel = math.hypot(1.5, 2.0)
     assert earliest_contact_s(w, w.config.gravity, margin) == pytest.approx(
-        (1.0 - _reach(w, a) - _reach(w, b) - margin) / rel, rel=1e-12)
+        (_least_sphere_gap(w, a, b) - margin) / rel, rel=1e-9)
 
 
 def test_a_box_collider_and_an_overlap(fresh):
@@ -55,10 +63,72 @@ def test_a_box_collider_and_an_overlap(fresh):
     w.add_box_collider((0.0, 0.0, 0.0), (1.0, 0.1, 1.0))
     b = add_box_body(w, HALF, 1000.0, x=(0.3, 0.5, 0.2))
     margin = w.config.speculative_margin_m
-    gap = 0.5 - 0.1 - _reach(w, b) - margin  # above the box's top face
+    gap = 0.5 + _lowest(w, b) - 0.1 - margin  # above the box's top face
     assert earliest_contact_s(w, w.config.gravity, margin) == pytest.approx(math.sqrt(2.0 * gap / G), rel=1e-12)
-    add_box_body(w, HALF, 1000.0, x=(0.3, 0.5 + 1.5 * _reach(w, b), 0.2))  # bounding spheres overlap
+    add_box_body(w, HALF, 1000.0, x=(0.305, 0.5, 0.2))  # its corner spheres overlap the first's
     assert earliest_contact_s(w, w.config.gravity, margin) == 0.0
+
+
+def _least_sphere_gap(w, a, b) -> float:
+    """m: the least gap between two bodies' collision spheres, from scipy's distance matrix."""
+    from scipy.spatial.distance import cdist
+
+    from rigid.quat import quat_to_matrix
+
+    st = w.body_state()
+    local, radius, body = w.sphere_data()
+    x = [st.x[k] + local[body == k] @ quat_to_matrix(st.q[k]).T for k in (a, b)]
+    r = [radius[body == k] for k in (a, b)]
+    return float((cdist(x[0], x[1]) - r[0][:, None] - r[1][None]).min())
+
+
+def test_bodies_whose_bounding_spheres_overlap_close_at_their_spheres_gap(fresh):
+    """Side by side, 2 cm apart: the bounding spheres overlap, the collision spheres do not. Moving
+    apart or together, they close at their relative speed over the spheres' least gap; and the step
+    makes its first contact in the step where that time falls."""
+    w = fresh
+    w.config.gravity = (0.0, 0.0, 0.0)
+    margin = w.config.speculative_margin_m
+    a = add_box_body(w, HALF, 1000.0, x=(0.0, 1.0, 0.0), v=(0.3, 0.0, 0.0))
+    b = add_box_body(w, HALF, 1000.0, x=(2 * HALF[0] + 0.02, 1.0, 0.0), v=(-0.2, 0.0, 0.0))
+    assert 2 * _reach(w, a) > 2 * HALF[0] + 0.02  # the bounding spheres overlap: the first pass alone gives 0
+    expected = (_least_sphere_gap(w, a, b) - margin) / 0.5
+    t = earliest_contact_s(w, w.config.gravity, margin)
+    assert t == pytest.approx(expected, rel=1e-9)
+    steps = 0
+    while w.n_contacts == 0:
+        w.step(DT)
+        steps += 1
+    assert (steps - 1) * DT <= t + 1e-9 < steps * DT + DT  # the contact comes in the step where the bound falls
+
+
+def test_bodies_stacked_apart_fall_together_until_the_floor(fresh):
+    """One box above another, their bounding spheres overlapping, both at rest: they fall together
+    and cannot touch before the lower one reaches the floor (a pot stacked in the Pots scene)."""
+    w = fresh
+    w.add_plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    margin = w.config.speculative_margin_m
+    a = add_box_body(w, HALF, 1000.0, x=(0.0, 0.5, 0.0))
+    b = add_box_body(w, HALF, 1000.0, x=(0.0, 0.5 + 2 * HALF[1] + 0.01, 0.0))
+    assert _least_sphere_gap(w, a, b) > margin
+    assert earliest_contact_s(w, w.config.gravity, margin) == pytest.approx(
+        math.sqrt(2.0 * (0.5 + _lowest(w, a) - margin) / G), rel=1e-12)  # the lower box's lowest sphere
+
+
+def test_a_spinning_body_is_not_caught_out_by_its_spin(fresh):
+    """A long box spun fast just above the floor: its ends sweep down faster than it falls. The bound
+    counts the spin (and how far it can grow as it tumbles) and no contact comes before it."""
+    w = fresh
+    w.add_plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    margin = w.config.speculative_margin_m
+    add_box_body(w, (0.2, 0.02, 0.03), 1000.0, x=(0.0, 0.1, 0.0), w=(1.0, 2.0, 25.0))
+    t = earliest_contact_s(w, w.config.gravity, margin)
+    assert 0.0 < t < math.sqrt(2.0 * 0.1 / G)  # sooner than its centre would fall to the floor
+    steps = 0
+    while w.n_contacts == 0:
+        w.step(DT)
+        steps += 1
+    assert (steps - 1) * DT >= t
 
 
 def test_a_world_without_bodies_or_motion_has_no_contact_to_come(fresh):
