@@ -53,6 +53,18 @@ class SurfaceMesh:
         return self.verts[used], inv.reshape(-1, 3)
 
 
+SURFACE_LIBRARIES = ("scipy.sparse", "scipy.sparse.csgraph", "scipy.spatial")  # fragment_surfaces' imports
+
+
+def import_libraries() -> None:
+    """Import what the first `fragment_surfaces` would (0.3-0.6 s on the 2-core machine): the
+    drawing process does it while it waits for the World (render/draw_process.py)."""
+    import importlib
+
+    for name in SURFACE_LIBRARIES:
+        importlib.import_module(name)
+
+
 def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     """(K,) int: face ids (particle * 4 + face) in balanced extra-link groups."""
     from scipy.sparse import coo_matrix

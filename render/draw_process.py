@@ -8,8 +8,9 @@ World (`SceneView`: which bodies a fracture changed and their particles, taken f
 poses and debris read from the stores), and sends it, and each call it would make on a `RenderScene`,
 as a message (`SceneFeed`); the drawing process keeps the bodies' surface blocks (their surfaces,
 colours and crack lines, render/surface_blocks.py), the `RenderScene`, the renderer, the following
-camera and the PNG and video writers. It renders the scene once as soon as it has one, so that the
-renderer's kernels compile while the simulation takes its first step. Messages are written on a thread
+camera and the PNG and video writers. While the World builds it imports what the first surfaces need
+(scipy's sparse graphs and k-d tree, 0.3-0.6 s); it renders the scene once as soon as it has one, so
+that the renderer's kernels compile while the simulation takes its first step. Messages are written on a thread
 of the simulation process (`_Sender`), so the simulation never waits on a drawing process that is
 busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's start
 while the drawing process built its scene.
@@ -332,6 +333,10 @@ def serve(fd: int) -> int:
             if what == "start":
                 drawer = _Drawer(data)
                 conn.send(("started", drawer.renderer.message))
+                if not conn.poll():  # the World is still building: the first surfaces' imports meanwhile
+                    from geometry.surface import import_libraries
+
+                    import_libraries()
             elif what == "close":
                 conn.send(("closed", drawer.close()))
                 return 0

@@ -188,3 +188,37 @@ def test_adaptive_split_matches_the_exact_box_split(seed):
     expect = np.array([below, 1.0 - below]) if side0.max() < 0 else np.array([1.0 - below, below])
     np.testing.assert_allclose(vol, expect, rtol=1e-9)
     check_surfaces(out, rep.labels)
+
+
+_SURFACES_CHILD = """
+import pickle, sys
+from geometry.surface import fragment_surfaces, import_libraries
+ps, labels = pickle.load(open(sys.argv[1], "rb"))
+import_libraries()
+before = set(sys.modules)
+surf = fragment_surfaces(ps, labels)
+assert surf.open_edges == 0
+print(sorted(m for m in set(sys.modules) - before if m.split(".")[0] == "scipy"))
+"""
+
+
+def test_the_drawing_process_imports_ahead_all_the_surfaces_need(tmp_path):
+    """render/draw_process.py imports `geometry.surface.import_libraries()` while the World builds;
+    a fresh process that did so imports no more of scipy for the surfaces of a cut box (its extra
+    links and hanging vertices take every path)."""
+    import pickle
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    ps = particles(kuhn_box(4, 4, 4, jitter=0.1, seed=3))
+    out, rep = apply_cracks(ps, [Crack(point=[0.5, 0.5, 0.5], normal=[0.05, 0.03, 1.0], r_outer=2.0)],
+                            mode="subdivision")
+    assert len(out.extra_links) > 0  # the path through the extra links' face groups is taken
+    data = tmp_path / "cut.pkl"
+    data.write_bytes(pickle.dumps((out, rep.labels)))
+    root = Path(__file__).resolve().parents[2]
+    child = subprocess.run([sys.executable, "-c", _SURFACES_CHILD, str(data)], cwd=root, capture_output=True,
+                           text=True, timeout=300)
+    assert child.returncode == 0, child.stderr
+    assert child.stdout.strip() == "[]"
