@@ -10,8 +10,11 @@ idle work: the pot's falling frames take 8 ms to step and 45 ms to draw), none b
 so that it is drawn sooner, provided the first contact cannot come before SAFETY_FRAMES + 1 frames
 (rigid.first_contact gives a lower bound on its time; a ball launched at a pane: all before the first
 frame, as at the build). Those the idle time has not run by the time the frames left before a contact
-are fewer than them run in those frames, as many a frame as needed. Without idle time they all run
-before the first frame. A fracture event runs any that are left first.
+are fewer than them run in those frames, spread by time: each frame takes its share of what is left
+(the pieces' mean time so far, at least PIECE_FLOOR_S, x the pieces left / the frames left), so that
+no frame of the fall stalls on several heavy pieces at once (the pot's frames 6-7 took 200 ms with
+three pieces each under a rule of so many pieces a frame; 125 ms at most now).
+Without idle time they all run before the first frame. A fracture event runs any that are left first.
 """
 
 from __future__ import annotations
@@ -21,6 +24,10 @@ import time
 from collections import deque
 
 SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possible contact
+# s: the least a piece is taken to last when a frame's share is reckoned: the first pieces are imports
+# numpy has made already (0-8 ms), and a mean of those alone leaves the heavy ones (scipy's packages,
+# 40-110 ms; first launches, 10-60 ms) piled up for the last frames
+PIECE_FLOOR_S = 0.03
 
 
 class EventWarmUp:
@@ -32,12 +39,18 @@ class EventWarmUp:
         self.world = world
         self.pieces = deque(warm_pieces(world))
         self.idle = False  # True where a drawing process gives the simulation idle time (run_one)
+        self.clock = time.perf_counter  # s: what the pieces' times are read from
+        self.spent = 0.0  # s: the pieces run so far, in all
+        self.ran = 0  # how many pieces have run
 
     def run_one(self) -> bool:
         """Run the next piece; False when none was left."""
         if not self.pieces:
             return False
+        t0 = self.clock()
         self.pieces.popleft()()
+        self.spent += self.clock() - t0
+        self.ran += 1
         return True
 
     def run_all(self) -> None:
@@ -47,7 +60,8 @@ class EventWarmUp:
     def before_frame(self) -> None:
         """At the start of a frame: all that are left, unless idle time runs them and a contact cannot
         come before SAFETY_FRAMES + 1 frames; then none at the first frame, and later, once the frames
-        left are fewer than the pieces, enough a frame that the rest have run before a contact could."""
+        left are fewer than the pieces, this frame's share (`run_share`): the last frame before a
+        contact could come runs all that are left."""
         if not self.pieces:
             return
         w = self.world
@@ -59,8 +73,17 @@ class EventWarmUp:
             if w.frame == 0:  # before the first frame: part of the build, as where the World ran them
                 w.build_seconds += time.perf_counter() - t0
         elif w.frame > 0 and frames <= n:  # the idle time did not do them all: the rest in the frames left
-            for _ in range(math.ceil(n / frames)):
-                self.run_one()
+            self.run_share(frames)
+
+    def run_share(self, frames: int) -> None:
+        """This frame's share of the pieces left, `frames` frames (this one included) before they
+        must all have run: at least one, then more while the share's time is not used up."""
+        mean = max(self.spent / self.ran if self.ran else 0.0, PIECE_FLOOR_S)  # s: a piece's time
+        share = mean * len(self.pieces) / frames
+        t0 = self.clock()
+        self.run_one()
+        while self.pieces and self.clock() - t0 + mean <= share:
+            self.run_one()
 
     def frames_to_first_contact(self) -> float:
         """Whole frames from now before a contact could be made (a scripted crack counts as one)."""
