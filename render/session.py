@@ -38,13 +38,14 @@ def world_surfaces(world):
     return fragment_surfaces(ps, labels)
 
 
-def rest_surface(world) -> np.ndarray:
-    """(T, 3, 3) m: the objects' surface before anything broke, in the reference frame: the built
-    tets' faces that had no face neighbour (World.rest_open_faces)."""
+def rest_surface(world) -> tuple[np.ndarray, np.ndarray]:
+    """The objects' surface before anything broke, in the reference frame: the built tets' faces that
+    had no face neighbour (World.rest_open_faces), as triangles (T, 3, 3) m and tet face ids (T,)
+    (particle * 4 + k; the built particles' store ids are their rows)."""
     from geometry.subdivision import face_points
 
     p, k = np.nonzero(world.rest_open_faces)
-    return face_points(world.particles.rest_verts[p])[np.arange(len(p)), k]
+    return face_points(world.particles.rest_verts[p])[np.arange(len(p)), k], p.astype(np.int64) * 4 + k
 
 
 def material_looks(world) -> list:
@@ -90,7 +91,7 @@ class SceneView:
         if colors not in COLOR_MODES:
             raise ConfigError("--colors", colors, ", ".join(COLOR_MODES))
         self.world = world
-        rest = rest_surface(world) if "rigid" in world.stages else np.zeros((0, 3, 3))
+        rest, rest_ids = rest_surface(world) if "rigid" in world.stages else (np.zeros((0, 3, 3)), None)
         # room for the crack faces and debris of the first events, and a pose for every body the rigid
         # store can hold: a larger buffer is a new Taichi field, and the render kernels that read it
         # recompile (about 2 s for the surfaces; Pots' pose buffer grew past 64 and 128 bodies, 0.1-0.2 s)
@@ -108,8 +109,9 @@ class SceneView:
         self.looks = material_looks(world)
         size = float(np.ptp(rest.reshape(-1, 3), axis=0).max()) if len(rest) else 1.0
         edge = np.median(np.linalg.norm(rest - np.roll(rest, 1, axis=1), axis=2)) if len(rest) else 0.0
-        blocks = dict(rest=rest, looks=self.looks, colors=colors, tol=ON_SURFACE_REL * max(size, 1e-3),
-                      line_width=LINE_WIDTH_REL * edge if crack_lines else None, line_lift=LIFT_REL * edge)
+        blocks = dict(rest=rest, rest_ids=rest_ids, looks=self.looks, colors=colors,
+                      tol=ON_SURFACE_REL * max(size, 1e-3), line_width=LINE_WIDTH_REL * edge if crack_lines else None,
+                      line_lift=LIFT_REL * edge)
         self.blocks = None if self._host_side else SurfaceBlocks(**blocks)
         if self._host_side:
             self.scene.make_blocks(blocks)

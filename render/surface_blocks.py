@@ -121,11 +121,12 @@ class SurfaceCache:
 
 class SurfaceBlocks:
     """A RenderScene's body blocks from `SurfaceChanges` (module doc): rest (T, 3, 3) m, the objects'
-    surface at rest; looks, one per material id; tol m, the on-surface distance of an outer face;
-    line_width, line_lift m, the crack lines' ribbons (None: no crack lines)."""
+    surface at rest, and rest_ids (T,) its tet face ids (None: not known); looks, one per material id;
+    tol m, the on-surface distance of an outer face; line_width, line_lift m, the crack lines' ribbons
+    (None: no crack lines)."""
 
     def __init__(self, rest: np.ndarray, looks: list, colors: str, tol: float, line_width: float | None,
-                 line_lift: float) -> None:
+                 line_lift: float, rest_ids: np.ndarray | None = None) -> None:
         self._rest = RestSurface(rest)
         self.looks = looks
         self.colors = colors
@@ -133,6 +134,10 @@ class SurfaceBlocks:
         self.crack_lines = line_width is not None
         self._line_width, self._line_lift = line_width, line_lift
         self._outer = np.zeros(0, dtype=np.int8)  # per tet face (particle * 4 + k): -1 unknown, 0 crack, 1 outer
+        if rest_ids is not None and len(rest_ids):
+            # a face of the rest surface lies on it: known without the search (Pots' first blocks, 0.27 s)
+            self._outer = np.full(int(rest_ids.max()) + 1, -1, dtype=np.int8)
+            self._outer[rest_ids] = 1
         self._surfaces = SurfaceCache()
         self._ribbons: dict[int, tuple] = {}  # body -> its crack lines' (verts, faces, the face each lies on)
 

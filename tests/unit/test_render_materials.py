@@ -96,6 +96,30 @@ def test_crack_faces_are_the_faces_on_the_cut(split_world):
     assert on_cut.any() and np.array_equal(~outer, on_cut)
 
 
+@pytest.mark.parametrize("scene", ["pot", "taichi"])
+def test_the_rest_surface_faces_are_outer_without_the_search(scene, taichi_runtime):
+    """SurfaceBlocks marks the rest surface's own faces outer from their ids, without the search (Pots'
+    first blocks: 0.27 s); the search says the same of every one of them, on a curved object and on
+    one of two materials."""
+    from geometry.surface import RestSurface
+    from render.session import rest_surface
+    from render.surface_blocks import SurfaceBlocks
+
+    world = World(load_scene(scene))
+    try:
+        tris, ids = rest_surface(world)
+        view = SceneView(world)
+        tol = view.blocks._tol
+        view.release()
+    finally:
+        world.release()
+    assert len(ids) == len(tris) > 0
+    assert RestSurface(tris).covers(tris, tol).all()
+    blocks = SurfaceBlocks(tris, [DEFAULT_LOOK], "material", tol, None, 0.0, rest_ids=ids)
+    seeded = blocks._outer.copy()
+    assert np.all(seeded[ids] == 1) and np.all(np.delete(seeded, ids) == -1)
+
+
 def test_crack_face_pixels_take_the_crack_shade(split_world):
     """Seen from inside the right half (its faces are back faces, culled), the left half's crack face
     fills the view in the crack shade; lit head-on with ambient + light = 1, the pixel is that colour."""
