@@ -86,14 +86,13 @@ def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache
 
     if not cache:
         return group()
-    from importlib.metadata import version
 
-    from geometry.build_cache import cached_arrays, digest
+    from geometry.build_cache import cached_arrays, digest, package_version
 
     inputs = b"".join(np.asarray(a, t).tobytes() for a, t in ((points, np.float64), (rad, np.float64),
                                                               (body_of, np.int64)))
-    key = digest("boundary-groups", f"{GROUPS_VERSION} scipy {version('scipy')}", inputs, group_size=int(group_size),
-                 reach=float(reach))
+    key = digest("boundary-groups", f"{GROUPS_VERSION} scipy {package_version('scipy')}", inputs,
+                 group_size=int(group_size), reach=float(reach))
 
     def valid(hit: dict) -> bool:
         gid = hit["gid"]

@@ -32,6 +32,7 @@ fit its kind's check, is computed again and rewritten.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import os
@@ -55,11 +56,21 @@ def cache_dir(kind: str = "tets") -> Path | None:
     return Path(xdg) / "anisofrac" / kind
 
 
+@functools.cache
+def package_version(name: str) -> str:
+    """An installed package's version, read once a process (`importlib.metadata` scans the installed
+    distributions on every call: 5 ms, twice for each of Pots' 13 objects); raises
+    PackageNotFoundError."""
+    from importlib.metadata import version
+
+    return version(name)
+
+
 def mesher_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    from importlib.metadata import PackageNotFoundError
 
     try:
-        return version("netgen-mesher")
+        return package_version("netgen-mesher")
     except PackageNotFoundError:  # a Netgen built from source: its module's own stamp
         import netgen
 

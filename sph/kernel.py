@@ -178,12 +178,11 @@ def kernel_wpca(
     args = (x, float(h), float(k_r), np.asarray(axis_scale, dtype=np.float64), int(min_neighbours))
     if not cache:
         return _wpca(*args)
-    from importlib.metadata import version
 
-    from geometry.build_cache import cached_arrays, digest
+    from geometry.build_cache import cached_arrays, digest, package_version
 
-    key = digest("wpca", f"{WPCA_VERSION} numpy {np.__version__} scipy {version('scipy')}", x.tobytes(), h=args[1],
-                 k_r=args[2], axis_scale=tuple(map(float, args[3])), min_neighbours=args[4])
+    key = digest("wpca", f"{WPCA_VERSION} numpy {np.__version__} scipy {package_version('scipy')}", x.tobytes(),
+                 h=args[1], k_r=args[2], axis_scale=tuple(map(float, args[3])), min_neighbours=args[4])
     got = cached_arrays("kernels", key, ("G",), lambda: dict(G=_wpca(*args)),
                         lambda hit: hit["G"].shape == (len(x), 3, 3) and bool(np.isfinite(hit["G"]).all()))
     return got["G"]
