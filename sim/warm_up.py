@@ -3,10 +3,11 @@ as fast as the tenth).
 
 Taichi compiles a kernel at its first launch, even from its offline cache (10-25 ms for a small one,
 over 100 ms for the store's gather: docs/decisions.md, session 27), and the kernels only events and
-debris launch (sim.fracture_stage.warm_pieces) take 0.6 s of the pot's start. A World built with
-warm_events=True runs them all at the end of its build. One built with warm_events=False (`main.py
-run`) with a drawing process runs them in the time the simulation waits for it (`run_one` is its
-idle work: the pot's falling frames take 8 ms to step and 45 ms to draw), none before the first frame,
+debris launch (sim.fracture_stage.warm_pieces), with the libraries an event imports, take 0.9-1.2 s
+(glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
+end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs them
+in the time the simulation waits for it (`run_one` is its idle work: the pot's falling frames take
+8 ms to step and 45 ms to draw), none before the first frame,
 so that it is drawn sooner, provided the first contact cannot come before SAFETY_FRAMES + 1 frames
 (rigid.first_contact gives a lower bound on its time; a ball launched at a pane: all before the first
 frame, as at the build). Those the idle time has not run by the time the frames left before a contact
