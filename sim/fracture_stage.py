@@ -49,7 +49,7 @@ def take_body(world, body: int) -> TakenBody:
 # then the event's own modules. A run's build imports none of them (geometry/build_cache.py).
 LIBRARY_IMPORTS = ("numpy.ma", "numpy.f2py", "numpy.random", "numpy.testing", "scipy._lib._array_api", "scipy.sparse",
                    "scipy.linalg", "scipy.sparse.csgraph", "scipy.special", "scipy.spatial")
-EVENT_MODULES = ("sph.cracks", "geometry.fragments", "rigid.bodies", "sim.perforation")
+EVENT_MODULES = ("sph.cracks", "geometry.fragments", "geometry.crack_merge", "rigid.bodies", "sim.perforation")
 
 
 def _library_import(module: str) -> None:

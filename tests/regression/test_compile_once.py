@@ -172,24 +172,27 @@ w = World(load_scene("pot"), warm_events=False)
 w.warm_up.idle = True  # as under a drawing process: one piece in each wait for a frame
 pieces = len(w.warm_up.pieces)
 left, first_event = [], None
+event_imports = None
 for f in range(40):
     phase = f"frame {{f}}"
+    known = set(sys.modules)
     w.step_frame()
     left.append(len(w.warm_up.pieces))
     if w.events:
         first_event = f
+        event_imports = sorted(set(sys.modules) - known)
         break
     w.warm_up.run_one()  # the idle time after the frame is drawn
 print(json.dumps(dict(compiled=compiled, left_imminent=left_imminent, pieces=pieces, left=left,
-                      first_event=first_event)))
+                      first_event=first_event, event_imports=event_imports)))
 """
 
 
 def test_event_kernels_compile_in_the_idle_frames_before_the_first_contact():
     """Under a drawing process (`main.py run`), the event kernels compile while the simulation waits
     for frames to be drawn, none before the first frame, all before the first contact could come
-    (sim/warm_up.py): the event's frame compiles nothing. Where a contact is imminent (glass_r3's
-    ball), all compile before the first frame."""
+    (sim/warm_up.py): the event's frame compiles and imports nothing. Where a contact is imminent
+    (glass_r3's ball), all compile before the first frame."""
     info = _probe(SPREAD)
     assert info["left_imminent"] == 0
     assert info["left"][0] == info["pieces"] > 0  # the first frame ran none
@@ -197,6 +200,7 @@ def test_event_kernels_compile_in_the_idle_frames_before_the_first_contact():
     assert info["left"][info["first_event"] - 1] == 0  # all had run before the frame of the first event
     event = [name for phase, name in info["compiled"] if phase == f"frame {info['first_event']}"]
     assert event == [], event
+    assert info["event_imports"] == []  # nor imports anything (sim.fracture_stage.EVENT_MODULES)
 
 
 def _probe(code: str) -> dict:
