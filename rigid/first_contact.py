@@ -15,7 +15,9 @@ A lower bound, from the host's copy of the world, in two passes:
 
 Either pass is a lower bound; each pair keeps the larger of its two. Contacts are made
 `speculative_margin_m` before touching, so the margin counts as closed already. Nothing else can
-speed a body up before the first contact, so the least over all pairs bounds that contact.
+speed a body up before the first contact, so the least over all pairs bounds that contact. A
+speculative contact is made at the start of the step in which the pair can close, up to one rigid
+step before this time (sim/warm_up.py keeps SAFETY_FRAMES frames between).
 """
 
 from __future__ import annotations
