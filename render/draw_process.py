@@ -10,10 +10,10 @@ as a message (`SceneFeed`); the drawing process keeps the bodies' surface blocks
 colours and crack lines, render/surface_blocks.py), the `RenderScene`, the renderer, the following
 camera and the PNG and video writers. While the World builds it imports what the first surfaces need
 (scipy's sparse graphs and k-d tree, 0.3-0.6 s); it renders the scene once as soon as it has one, so
-that the renderer's kernels compile while the simulation takes its first step. Messages are written on a thread
-of the simulation process (`_Sender`), so the simulation never waits on a drawing process that is
-busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's start
-while the drawing process built its scene.
+that the renderer's kernels compile while the simulation takes its first step. Messages are written
+on a thread of the simulation process (`_Sender`), so the simulation never waits on a drawing process
+that is busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's
+start while the drawing process built its scene.
 
 The same calls in the same order on the same numbers give the same frames, byte for byte
 (tests/regression/test_draw_process.py). The drawing process has its own Taichi offline cache (two

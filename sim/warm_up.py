@@ -7,15 +7,15 @@ debris launch (sim.fracture_stage.warm_pieces), with the libraries an event impo
 (glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
 end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs them
 in the time the simulation waits for it (`run_one` is its idle work: the pot's falling frames take
-8 ms to step and 45 ms to draw), none before the first frame,
-so that it is drawn sooner, provided the first contact cannot come before SAFETY_FRAMES + 1 frames
-(rigid.first_contact gives a lower bound on its time; a ball launched at a pane: all before the first
-frame, as at the build). Those the idle time has not run by the time the frames left before a contact
-are fewer than them run in those frames, spread by time: each frame takes its share of what is left
-(the pieces' mean time so far, at least PIECE_FLOOR_S, x the pieces left / the frames left), so that
-no frame of the fall stalls on several heavy pieces at once (the pot's frames 6-7 took 200 ms with
-three pieces each under a rule of so many pieces a frame; 125 ms at most now).
-Without idle time they all run before the first frame. A fracture event runs any that are left first.
+8 ms to step and 45 ms to draw), none before the first frame, so that it is drawn sooner, provided the
+first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact gives a lower bound on
+its time; a ball launched at a pane: all before the first frame, as at the build). Those the idle
+time has not run by the time the frames left before a contact are fewer than them run in those
+frames, spread by time: each frame takes its share of what is left (the pieces' mean time so far, at
+least PIECE_FLOOR_S, x the pieces left / the frames left), so that no frame of the fall stalls on
+several heavy pieces at once (the pot's frames 6-7 took 200 ms with three pieces each under a rule of
+so many pieces a frame; 125 ms at most now). Without idle time they all run before the first frame.
+A fracture event runs any that are left first.
 """
 
 from __future__ import annotations
