@@ -8,8 +8,9 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+import pytest
 
-from sim.warm_up import EventWarmUp
+from sim.warm_up import PIECE_FLOOR_S, EventWarmUp
 
 
 class _Clock:
@@ -46,22 +47,24 @@ def test_pieces_are_spread_by_time_and_all_run_before_the_contact():
         if left == 1:
             w.run_all()  # EventWarmUp.before_frame: the last frame runs what is left
         else:
-            share = (w.spent / w.ran if w.ran else 0.0) * len(w.pieces) / left
+            share = max(w.spent / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
             n0 = len(w.pieces)
             w.run_share(left)
             assert len(w.pieces) < n0  # at least one a frame
             assert clock.now - t0 <= share + durations.max() + 1e-12  # never more than the share and one piece
         work.append(clock.now - t0)
     assert ran == list(range(len(durations)))  # all, in order
-    assert sum(work) == np.sum(durations)
+    assert sum(work) == pytest.approx(durations.sum(), rel=1e-12)
     # the even spread: no frame holds much more than its part of the whole (the count rule, three
     # pieces a frame, gave frames of up to three of the heaviest pieces)
     assert max(work) <= 2.0 * durations.sum() / frames + durations.max()
 
 
-def test_the_first_share_runs_one_piece_to_learn_their_time():
+def test_a_share_runs_no_piece_past_it_but_always_one():
     w, clock, ran = _warm_up([0.05] * 10)
-    w.run_share(5)
+    w.run_share(5)  # none run yet: PIECE_FLOOR_S a piece, a 60 ms share
     assert ran == [0]
     w.run_share(5)  # 9 pieces of 50 ms in 5 frames: a 90 ms share, which a second piece would pass
     assert ran == [0, 1]
+    w.run_share(20)  # a share smaller than one piece: still one
+    assert ran == [0, 1, 2]
