@@ -65,7 +65,7 @@ class _Motion:
         ids = self.ids
         self.x, self.v = st.x[ids], st.v[ids]
         self.reach = world.body_reach()[ids].astype(np.float64)
-        self.static = np.asarray(world._hb.static[:n], dtype=bool)[ids]
+        self.static = world.static_mask()[ids]
         self.speed = np.where(self.static, 0.0, np.linalg.norm(self.v, axis=1))
         self.spin = np.zeros(len(ids))  # m/s: the fastest a point of the body can move about its centre
         for k in np.flatnonzero(~self.static & (np.linalg.norm(st.w[ids], axis=1) > 0.0)):
@@ -107,13 +107,14 @@ def _sphere_gap(m: _Motion, a: int, b: int, reach_by: float) -> float:
 def _collider_times(world, m: _Motion, g: float, margin: float) -> float:
     """s: the earliest a moving body could reach a collider, from its bounding sphere and its spheres."""
     moving = np.flatnonzero(~m.static)
-    if not world._ncol or len(moving) == 0:
+    col = world.colliders()
+    if not col["kind"] or len(moving) == 0:
         return math.inf
-    coarse = _time_to_close(_collider_gaps(world._col, m.x[moving], m.reach[moving]) - margin,
+    coarse = _time_to_close(_collider_gaps(col, m.x[moving], m.reach[moving]) - margin,
                             m.speed[moving], g)
     sph = np.concatenate([m.spheres(k) for k in moving])
     owner = np.repeat(np.arange(len(moving)), [len(m.spheres(k)) for k in moving])
-    per_sphere = _collider_gaps(world._col, m.centre[sph], m.radius[sph]) - margin
+    per_sphere = _collider_gaps(col, m.centre[sph], m.radius[sph]) - margin
     least = np.full(coarse.shape, np.inf)
     for k in range(len(least)):
         np.minimum.at(least[k], owner, per_sphere[k])

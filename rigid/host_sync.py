@@ -69,6 +69,15 @@ class HostSync:
             self._reach = (self._sph_body, reach)
         return self._reach[1]
 
+    def static_mask(self) -> np.ndarray:
+        """(nb,) bool: which bodies are immovable (a window frame, a held body)."""
+        return np.asarray(self._hb.static[: self._nb], dtype=bool)
+
+    def colliders(self) -> dict:
+        """The static colliders' host lists, one entry each: kind (0 half-space, 1 box), x, q, n, half,
+        restitution, friction. Read only."""
+        return self._col
+
     def warm_event_pieces(self) -> list:
         """Launchers of the copies a fracture event makes (contact and warm-start downloads, wake-ups,
         body-state writes), each launching one on nothing (zero counts; the body-state write on a free
