@@ -78,9 +78,9 @@ class _Motion:
         # spheres of the k-th alive body: order[start[k]:start[k + 1]]
         slot = np.full(n, -1)
         slot[ids] = np.arange(len(ids))
-        owner = slot[body]
-        self.order = np.argsort(owner, kind="stable")
-        self.start = np.searchsorted(owner[self.order], np.arange(len(ids) + 1))
+        self.owner = slot[body]  # (NS,) the alive body (index into ids) of each sphere, -1 for a removed one
+        self.order = np.argsort(self.owner, kind="stable")
+        self.start = np.searchsorted(self.owner[self.order], np.arange(len(ids) + 1))
 
     def spheres(self, k: int) -> np.ndarray:
         return self.order[self.start[k]:self.start[k + 1]]
@@ -112,13 +112,13 @@ def _collider_times(world, m: _Motion, g: float, margin: float) -> float:
         return math.inf
     coarse = _time_to_close(_collider_gaps(col, m.x[moving], m.reach[moving]) - margin,
                             m.speed[moving], g)
-    sph = np.concatenate([m.spheres(k) for k in moving])
-    owner = np.repeat(np.arange(len(moving)), [len(m.spheres(k)) for k in moving])
+    sph = np.flatnonzero(m.owner >= 0)
+    sph = sph[~m.static[m.owner[sph]]]  # the moving bodies' spheres
     per_sphere = _collider_gaps(col, m.centre[sph], m.radius[sph]) - margin
-    least = np.full(coarse.shape, np.inf)
+    least = np.full((len(per_sphere), len(m.ids)), np.inf)  # (K, bodies) m: each body's nearest sphere
     for k in range(len(least)):
-        np.minimum.at(least[k], owner, per_sphere[k])
-    fine = _time_to_close(least, m.speed[moving] + m.spin[moving], g)
+        np.minimum.at(least[k], m.owner[sph], per_sphere[k])
+    fine = _time_to_close(least[:, moving], m.speed[moving] + m.spin[moving], g)
     return float(np.maximum(coarse, fine).min())
 
 

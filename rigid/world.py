@@ -393,7 +393,7 @@ class RigidWorld(HostSync):
     def awake_bodies(self) -> int:
         """Dynamic bodies alive and awake, counted on the downloaded body state (no kernel of its own)."""
         st = self._state()
-        return int(np.count_nonzero(st.alive & ~st.asleep & ~np.asarray(self._hb.static, dtype=bool)))
+        return int(np.count_nonzero(st.alive & ~st.asleep & ~self.static_mask()))
 
     def body_state(self, fresh: bool = False) -> BodyState:
         """Numpy copy of every body's pose and velocity (index = body id). `fresh`: downloaded now, not
