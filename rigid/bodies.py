@@ -270,8 +270,7 @@ def split_body(
                 friction=fric,
             )
         )
-    world.remove_bodies([body_id])
-    new_ids = world.add_bodies(specs)
+    new_ids = world.replace_bodies([body_id], specs)
     for sel, bid in zip(by_label, new_ids):
         particles.body[sel] = bid
     return new_ids

@@ -288,65 +288,58 @@ class RigidWorld(HostSync):
         sphere_radius ((B,) m), x (COM world position; default mass.com, i.e. the rest pose),
         q (w-x-y-z, default identity), v (m/s), w (rad/s, world), static, restitution, friction.
         """
-        if not specs:
-            return []
-        fdt = numpy_float()
-        rows = []
-        new_local, new_rad, new_body = [], [], []
-        for u, sp in enumerate(specs):
-            row, loc, rad = _checked_spec(self._nb + u, sp)
-            rows.append(row)
-            new_local.append(loc)
-            new_rad.append(rad)
-            new_body.append(np.full(len(loc), self._nb + u, np.int32))
-        nb_new = self._nb + len(specs)
-        ns_add = sum(len(a) for a in new_local)
-        self._ensure(nb_new, self._ns + ns_add, self._ncol)
-        for mp, static, rest, fric, *_rest, nsph in rows:
-            self._hb.append(mp, static, rest, fric, nsph)
-        state = BodyState(
-            x=np.array([r[4] for r in rows]),
-            q=np.array([r[5] for r in rows]),
-            v=np.array([r[6] for r in rows]),
-            w=np.array([r[7] for r in rows]),
-            asleep=np.zeros(len(rows), bool),
-            alive=np.ones(len(rows), bool),
-        )
-        self._upload_bodies(self._nb, len(rows), state)
-        prev = self._download_prev()
-        old_ns = self._ns
-        self._sph_local = np.concatenate([self._sph_local, np.concatenate(new_local).astype(fdt)])
-        self._sph_radius = np.concatenate([self._sph_radius, np.concatenate(new_rad).astype(fdt)])
-        self._sph_body = np.concatenate([self._sph_body, np.concatenate(new_body)])
-        self._ns = len(self._sph_radius)
-        self._upload_spheres(old_ns, self._ns - old_ns)
-        self._remap_prev(prev, np.arange(old_ns), self._ns)
-        ids = list(range(self._nb, nb_new))
-        self._nb = nb_new
-        return ids
+        return self.replace_bodies((), specs)
 
     def remove_bodies(self, ids) -> None:
         """Remove bodies between steps (their ids stay reserved); wakes sleeping bodies near them."""
+        self.replace_bodies(ids, [])
+
+    def replace_bodies(self, ids, specs: list[dict]) -> list[int]:
+        """`remove_bodies(ids)` then `add_bodies(specs)` as one change (split_body: a parent by its
+        pieces): the spheres after the first removed one are uploaded, and the warm-start contacts
+        renumbered, once. Returns the new bodies' ids."""
         ids = np.unique(np.asarray(ids, dtype=np.int64).reshape(-1))
-        if len(ids) == 0:
-            return
-        if ids.min() < 0 or ids.max() >= self._nb:
+        if len(ids) and (ids.min() < 0 or ids.max() >= self._nb):
             raise ConfigError("remove_bodies.ids", ids.tolist(), f"body ids in [0, {self._nb})")
-        st = self._state()
-        self.wake_near(ids, state=st)
-        fdt, zero3 = numpy_float(), np.zeros(3, numpy_float())
-        for b in ids:  # at rest where it was, not alive
-            self._write_body_state(int(b), st.x[b].astype(fdt), st.q[b].astype(fdt), zero3, zero3, 0, 0)
-        prev = self._download_prev()
+        if len(ids) == 0 and not specs:
+            return []
+        fdt = numpy_float()
+        if len(ids):
+            st = self._state()
+            self.wake_near(ids, state=st)
+            zero3 = np.zeros(3, fdt)
+            for b in ids:  # at rest where it was, not alive
+                self._write_body_state(int(b), st.x[b].astype(fdt), st.q[b].astype(fdt), zero3, zero3, 0, 0)
+        rows, new_local, new_rad, new_body = [], [], [], []
+        for u, sp in enumerate(specs):
+            row, loc, rad = _checked_spec(self._nb + u, sp)
+            rows.append(row)
+            new_local.append(loc.astype(fdt))
+            new_rad.append(rad.astype(fdt))
+            new_body.append(np.full(len(loc), self._nb + u, np.int32))
         keep = ~np.isin(self._sph_body, ids)
+        n_kept = int(keep.sum())
+        self._ensure(self._nb + len(specs), n_kept + sum(len(a) for a in new_local), self._ncol)
+        for mp, static, rest, fric, *_rest, nsph in rows:
+            self._hb.append(mp, static, rest, fric, nsph)
+        if specs:
+            state = BodyState(x=np.array([r[4] for r in rows]), q=np.array([r[5] for r in rows]),
+                              v=np.array([r[6] for r in rows]), w=np.array([r[7] for r in rows]),
+                              asleep=np.zeros(len(rows), bool), alive=np.ones(len(rows), bool))
+            self._upload_bodies(self._nb, len(rows), state)
+        prev = self._download_prev()
         old_to_new = np.full(self._ns, -1, np.int64)
-        old_to_new[keep] = np.arange(int(keep.sum()))
-        self._sph_local = self._sph_local[keep]
-        self._sph_radius = self._sph_radius[keep]
-        self._sph_body = self._sph_body[keep]
+        old_to_new[keep] = np.arange(n_kept)
+        first = int(np.argmin(keep)) if n_kept < self._ns else self._ns  # the first sphere that moves
+        self._sph_local = np.concatenate([self._sph_local[keep], *new_local])
+        self._sph_radius = np.concatenate([self._sph_radius[keep], *new_rad])
+        self._sph_body = np.concatenate([self._sph_body[keep], *new_body])
         self._ns = len(self._sph_radius)
-        self._upload_spheres(0, self._ns)
+        self._upload_spheres(first, self._ns - first)
         self._remap_prev(prev, old_to_new, self._ns)
+        new_ids = list(range(self._nb, self._nb + len(specs)))
+        self._nb += len(specs)
+        return new_ids
 
     def wake_near(self, ids, state: BodyState | None = None, pad: float | None = None) -> np.ndarray:
         """Wake every body with a sphere within `pad` (default: the largest sphere diameter plus the

@@ -22,7 +22,7 @@ import numpy as np
 
 from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
-from sim.struck_surface import surface_frame, surface_radius_at
+from sim.struck_surface import SurfaceRows, surface_frame, surface_radius_at
 
 # A piece breaks again only when it holds at least this many physical-particle volumes of its object:
 # about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
@@ -256,13 +256,14 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     nearest = nearest_to(point)
     # the struck surface's own point and normal, not the collision spheres' (surface_frame)
     edge = tet_edge(float(ps.volume[nearest]))
-    point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"])
+    surface = SurfaceRows(ps, body)
+    point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"], surface=surface)
     nearest = nearest_to(point)
     material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
                       **_contact_bodies(world, body, impact["other"], point, normal,
-                                        surface_radius_at(ps, body, point, normal, 2.0 * edge)))
+                                        surface_radius_at(ps, body, point, normal, 2.0 * edge, surface)))
     result = analyse_impact(ps.centroid[ids], ps.volume[ids], G[ids], material, spec,
                             crack_count=cfg_mat.cracks, thickness=world.bodies[body].thickness)
     if len(np.unique(ps.material[ids])) > 1:

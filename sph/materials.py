@@ -31,6 +31,7 @@ comes from the engineering shear convention: |e|^2 <= 2 |eps|_F^2).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field, replace
 
@@ -41,6 +42,7 @@ from sph.cleavage import Cleavage, cleavage_from_dict
 
 VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))  # index pairs of Voigt slots 0..5
 _SYM_RTOL = 1e-10  # relative asymmetry accepted in a full 6x6
+ROTATIONS_KEPT = 64  # (stiffness, rotation) pairs whose turned stiffness is remembered (rotate_stiffness)
 
 
 def _pos(key: str, value: float) -> float:
@@ -104,9 +106,17 @@ def energy_density(C: np.ndarray, eps: np.ndarray) -> np.ndarray:
 
 def rotate_stiffness(C: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """C expressed in material axes -> world: C'_ijkl = Q_ia Q_jb Q_kc Q_ld C_abcd (Q's columns =
-    material axes in world coordinates, Q orthonormal)."""
-    Q = np.asarray(Q, dtype=np.float64)
-    T = voigt_to_tensor(np.asarray(C, dtype=np.float64))
+    material axes in world coordinates, Q orthonormal). A fresh array, remembered by the bytes of C and Q:
+    every impact analysis turns its object's material (World.object_material), 0.5 ms of einsum a time."""
+    C = np.ascontiguousarray(C, dtype=np.float64)
+    Q = np.ascontiguousarray(Q, dtype=np.float64)
+    return _rotated(C.shape, C.tobytes(), Q.shape, Q.tobytes()).copy()
+
+
+@functools.lru_cache(maxsize=ROTATIONS_KEPT)
+def _rotated(c_shape: tuple, c_bytes: bytes, q_shape: tuple, q_bytes: bytes) -> np.ndarray:
+    Q = np.frombuffer(q_bytes).reshape(q_shape)
+    T = voigt_to_tensor(np.frombuffer(c_bytes).reshape(c_shape))
     return tensor_to_voigt(np.einsum("ia,jb,kc,ld,abcd->ijkl", Q, Q, Q, Q, T, optimize=True))
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from geometry.particles import build_particles
 from rigid.bodies import add_tet_body, box_tetmesh, split_body
 from rigid.quat import quat_from_axis_angle, quat_to_matrix
-from rigid.world import RigidConfig
+from rigid.world import RigidConfig, RigidWorld
 
 DT = 1.0 / 240.0
 
@@ -196,3 +196,40 @@ def test_wake_near_finds_every_body_with_a_sphere_in_the_box(fresh):
         want = np.unique(body[inside])
         assert 0 < len(want) < len(ids) - 1  # the case has bodies on both sides of the box
         np.testing.assert_array_equal(fresh.wake_near([struck], pad=pad), want)
+
+
+def test_a_split_in_one_change_leaves_the_world_as_remove_then_add(world):
+    """split_body replaces the parent by its pieces in one change (RigidWorld.replace_bodies: the
+    spheres after the parent's uploaded and the warm-start contacts renumbered once); the world it
+    leaves is the one `remove_bodies` then `add_bodies` leave: the same spheres, the same warm-start
+    contacts, and 30 steps later the same poses and velocities, bit for bit. The parent sits between
+    two bodies resting against it on a floor, so spheres and contacts on both sides are renumbered."""
+
+    def run(one_change: bool):
+        w = world
+        w.clear()
+        w.config = RigidConfig()
+        w.add_plane((0, 0, 0), (0, 1, 0))
+        boxes = []
+        for dx in (-0.1, 0.0, 0.1):  # three boxes side by side, touching
+            ps = build_particles(box_tetmesh([0.1, 0.05, 0.05], (2, 1, 1), center=(dx, 0.025, 0.0)), 1000.0)
+            boxes.append((add_tet_body(w, ps, group_size=1, v=(-dx, 0.0, 0.0)), ps))
+        for _ in range(30):
+            w.step(DT)
+        parent, ps = boxes[1]
+        if not one_change:  # the two changes split_body made before: remove_bodies, then add_bodies
+            w.replace_bodies = lambda ids, specs: (RigidWorld.replace_bodies(w, ids, []),
+                                                   RigidWorld.replace_bodies(w, (), specs))[1]
+        kids = split_body(w, parent, ps, np.arange(len(ps)), (ps.centroid[:, 0] > 0.0).astype(int), group_size=1)
+        w.__dict__.pop("replace_bodies", None)
+        after = [*w.sphere_data(), *w._download_prev()]
+        for _ in range(30):
+            w.step(DT)
+        st = w.body_state()
+        return kids, after, [st.x, st.q, st.v, st.w]
+
+    kids, changed, state = run(True)
+    kids_2, changed_2, state_2 = run(False)
+    assert kids == kids_2 and len(changed[3]) > 0  # warm-start contacts were kept across the split
+    for a, b in zip(changed + state, changed_2 + state_2, strict=True):
+        np.testing.assert_array_equal(a, b)

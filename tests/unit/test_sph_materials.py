@@ -18,6 +18,8 @@ from sph.materials import (
     stiffness_orthotropic,
     stiffness_transverse,
     strain_to_voigt,
+    tensor_to_voigt,
+    voigt_to_tensor,
     wave_speed_max,
 )
 
@@ -99,6 +101,19 @@ def test_rotated_orthotropic_energy_equals_rotated_strain():
     Rz = Rotation.from_euler("z", 90, degrees=True).as_matrix()
     Cz = rotate_stiffness(C, Rz)
     assert Cz[1, 1] == pytest.approx(C[0, 0]) and Cz[0, 0] == pytest.approx(C[1, 1])
+
+
+def test_a_remembered_rotation_is_the_computed_one_and_a_fresh_array():
+    """rotate_stiffness remembers its answers (every impact analysis turns its object's material): a
+    repeated call gives the einsum's bits again, in an array of its own that the caller may change."""
+    C = stiffness_orthotropic(**WOOD)
+    Q = Rotation.from_euler("xyz", [15.0, 0.0, 5.0], degrees=True).as_matrix()
+    T = voigt_to_tensor(C)
+    want = tensor_to_voigt(np.einsum("ia,jb,kc,ld,abcd->ijkl", Q, Q, Q, Q, T, optimize=True))
+    first = rotate_stiffness(C, Q)
+    first[0, 0] = -1.0  # the caller's own copy
+    again = rotate_stiffness(C, Q)
+    assert again is not first and np.array_equal(again, want)
 
 
 BAD = [

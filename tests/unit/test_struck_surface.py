@@ -16,6 +16,7 @@ from sim.struck_surface import (
     _nearest_patch,
     _radius_of,
     _surface_particles,
+    _unique_rows,
     surface_frame,
     surface_radius_at,
 )
@@ -64,3 +65,19 @@ def test_a_body_without_free_faces_keeps_the_contact(body):
     got = surface_frame(ps, 5, point, normal, edge)  # body 5 has no particles
     assert got[0] is point and got[1] is normal
     assert surface_radius_at(ps, 5, point, normal, edge) == np.inf
+
+
+def test_unique_rows_are_numpys_unique_rows(body):
+    """`_unique_rows` (one lexsort) gives `np.unique(rows, axis=0)`, bit for bit and in its order, on the
+    corners of every facing face of the body (shared corners repeat) and on rows with repeats and -0.0."""
+    ps, _ = body
+    point = ps.centroid.mean(0)
+    tri, _, _ = _facing_faces(ps, _surface_particles(ps, 0), point, np.array([0.0, 1.0, 0.0]))
+    rng = np.random.default_rng(5)
+    small = rng.integers(-2, 3, (80, 3)).astype(float) * 0.5
+    small[rng.integers(0, 80, 10)] = -0.0
+    for rows in (tri.reshape(-1, 3) - point, small, small[:1], small[:0]):
+        want = np.unique(rows, axis=0)
+        got = _unique_rows(rows)
+        assert got.shape == want.shape and np.array_equal(got, want)
+        assert len(want) < len(rows) or len(rows) < 2  # the cases hold repeats
