@@ -45,7 +45,19 @@ def k_after_substeps(s: ti.template(), nb: ti.i32, nc: ti.i32, dt: float, pos_it
 @ti.kernel
 def k_bookkeeping(s: ti.template(), nb: ti.i32, nc: ti.i32, ns: ti.i32, time_to_sleep: float,
                   sleeping: ti.template()):
-    """Stages 10-11: contacts saved for the next warm start, then (`sleeping`) the islands' sleep."""
+    """Stages 10-11: contacts saved for the next warm start (and the fastest closing speed among them,
+    `RigidWorld.fastest_closing`), then (`sleeping`) the islands' sleep."""
     islands.save_contacts(s, nc, ns)
+    fastest_closing(s, nc)
     if ti.static(sleeping):
         islands.sleep_islands(s, nb, nc, time_to_sleep)
+
+
+@ti.func
+def fastest_closing(s: ti.template(), nc: ti.i32):
+    """s.max_closing: the largest -vn0 (m/s, pre-solve closing speed) of the contacts that carried impulse,
+    0 if none (a maximum: the same whatever the order)."""
+    s.max_closing[None] = 0.0
+    for c in range(nc):
+        if s.ct_ltot[c] > 0.0:
+            ti.atomic_max(s.max_closing[None], -s.ct_vn0[c])

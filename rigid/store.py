@@ -44,7 +44,8 @@ class RigidStore:
         self.ct_total = ti.field(ti.i32)  # () -: contacts found by the narrow-phase count
         self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
         self.max_level = ti.field(ti.i32)  # () -: largest support level this step
-        fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level)
+        self.max_closing = ti.field(float)  # () m/s: fastest closing speed of a contact that took impulse
+        fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level, self.max_closing)
         fb.finalize()
 
     def _bodies(self, dense, nb: int) -> None:

@@ -401,6 +401,11 @@ class RigidWorld(HostSync):
         rot = quat_to_matrix(st.q[: self._nb])[b]  # one matrix per body, gathered (Pots: 150 bodies, 50k spheres)
         return np.einsum("nij,nj->ni", rot, self._sph_local[sel].astype(np.float64)) + st.x[b]
 
+    def fastest_closing(self) -> float:
+        """m/s: the fastest pre-solve closing speed among the last step's contacts that carried impulse (0
+        if none): an impact above a threshold needs one above it, so a step without one downloads nothing."""
+        return float(self._s.max_closing[None])
+
     def contact_events(self) -> ContactEvents:
         """Contacts of the last step (see ContactEvents)."""
         fdt = numpy_float()

@@ -369,8 +369,10 @@ class World:
         """Keep, per breakable body, the hardest impact of this frame above the speed threshold."""
         from sim.fracture_stage import contact_in_reference
 
-        pairs = self.rigid.contact_events().by_body_pair()
         threshold = self.cfg.scene.impact_threshold
+        if self.rigid.fastest_closing() <= threshold:
+            return  # no contact closes fast enough: nothing to download
+        pairs = self.rigid.contact_events().by_body_pair()
         state = None  # the bodies' poses, downloaded once and only when an impact is kept
         for k in range(len(pairs["impulse"])):
             speed = -float(pairs["speed"][k])  # closing speed, m/s

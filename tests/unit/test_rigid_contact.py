@@ -350,3 +350,22 @@ def test_resting_contacts_carry_exactly_the_weight(fresh):
     moment = np.cross(arm, ev.normal_impulse[:, None] * ev.normal).sum(0)
     assert np.abs(moment).max() < 1e-6 * w.body_mass(b) * G * DT * 0.15
     assert np.abs(w.body_state().v[b]).max() < 1e-12
+
+
+def test_fastest_closing_is_the_fastest_touching_contact(fresh, ball_mass):
+    """RigidWorld.fastest_closing (what the fracture stage reads before it downloads a step's contacts)
+    is the largest pre-solve closing speed among the contacts that carried impulse, 0 when none did: step
+    by step while two balls fall onto the floor, strike it, bounce off each other and come to rest."""
+    w = fresh
+    w.add_plane((0, 0, 0), (0, 1, 0), restitution=0.0)
+    _add_ball(w, ball_mass, (0.0, 0.5, 0.0), e=0.5)
+    _add_ball(w, ball_mass, (0.05, 0.8, 0.0), e=0.5, v=(0.0, -3.0, 0.0))
+    seen = set()
+    for _ in range(360):
+        w.step(DT)
+        touching = w.contact_events().touching()
+        want = float((-touching.normal_speed).max()) if len(touching) else 0.0
+        assert w.fastest_closing() == max(want, 0.0)
+        seen.add((len(w.contact_events()) > len(touching), want > 1.0, 0.0 < want < 0.1))
+    # steps with contacts that took no impulse (speculative), a strike above 1 m/s, a slow touch below 0.1
+    assert all(any(case[k] for case in seen) for k in range(3))
