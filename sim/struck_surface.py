@@ -161,7 +161,7 @@ def _radius_of(faces, point: np.ndarray, normal: np.ndarray, radius: float) -> f
 
 def _unique_rows(a: np.ndarray) -> np.ndarray:
     """`np.unique(a, axis=0)` of a float (K,3) array (the distinct rows in lexicographic order), by one
-    lexsort: numpy's sorts a structured view, 0.3 ms for a patch's few hundred corners."""
+    lexsort: numpy's sorts a structured view, 0.4 ms for a patch's few hundred corners against 0.09."""
     s = a[np.lexsort(a.T[::-1])]
     return s[np.r_[True, (s[1:] != s[:-1]).any(axis=1)]] if len(s) else s
 
