@@ -68,8 +68,9 @@ def test_a_body_without_free_faces_keeps_the_contact(body):
 
 
 def test_unique_rows_are_numpys_unique_rows(body):
-    """`_unique_rows` (one lexsort) gives `np.unique(rows, axis=0)`, bit for bit and in its order, on the
-    corners of every facing face of the body (shared corners repeat) and on rows with repeats and -0.0."""
+    """`_unique_rows` (one lexsort) gives `np.unique(rows, axis=0)`: the same rows in the same order, on
+    the corners of every facing face of the body (shared corners repeat) and on rows with repeats and
+    -0.0 (equal to 0.0: either may stand for both, and `surface_radius` adds the point to it)."""
     ps, _ = body
     point = ps.centroid.mean(0)
     tri, _, _ = _facing_faces(ps, _surface_particles(ps, 0), point, np.array([0.0, 1.0, 0.0]))
