@@ -40,7 +40,7 @@ class KernelConfig:
     """The SPH kernel of a material (Sect. 4.1, Eq. 4-6)."""
 
     mode: str = spec_field("str", "isotropic", choices=("isotropic", "fixed", "wpca"))
-    support: float = spec_field("float", 2.0, lo=1.0, hi=6.0, unit="particle spacings")
+    support: float = spec_field("float", 2.0, lo=1.0, hi=6.0, unit="x the object's resolution, its tet edge")
     axis_scale: list = spec_field("vec3", [1.0, 1.0, 1.0], lo=0.01, hi=100.0, unit="-")
     axes: list = spec_field("floats", [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], length=9, lo=-1.0, hi=1.0)
     max_ratio: float = spec_field("float", 4.0, lo=1.0, hi=20.0, unit="-")
