@@ -5,7 +5,9 @@ costs a pass over every label per group.
 
 `unique_rows` is `np.unique(rows, axis=0)` for integer rows (tet faces, links, edges, body pairs) by one
 int64 key per row: numpy sorts rows as a structured view, about 10x slower (150k sorted vertex pairs:
-157 ms against 16 ms). The keys sort as the rows do, so the result is the same, bit for bit.
+157 ms against 16 ms). The keys sort as the rows do, so the result is the same, bit for bit. Float rows
+(the corners of a struck patch) are sorted by one lexsort instead: the same rows in the same order
+(0.09 ms against 0.44 for a patch's few hundred corners; -0.0 and 0.0 are one value, as for numpy).
 """
 
 from __future__ import annotations
@@ -17,13 +19,22 @@ KEY_LIMIT = 1 << 62  # largest product of the column spans packed into one int64
 
 def unique_rows(rows: np.ndarray, return_inverse: bool = False, return_counts: bool = False):
     """What `np.unique(rows, axis=0, return_inverse=..., return_counts=...)` returns for an (N, K)
-    integer array: the distinct rows in lexicographic order, then the (N,) index of each row's distinct
-    row and the count of each, as asked."""
+    integer or float array: the distinct rows in lexicographic order, then the (N,) index of each row's
+    distinct row and the count of each, as asked."""
     rows = np.asarray(rows)
-    if rows.ndim != 2 or not np.issubdtype(rows.dtype, np.integer):
-        raise ValueError(f"unique_rows takes an (N, K) integer array, got shape {rows.shape} of {rows.dtype}")
+    kind_ok = np.issubdtype(rows.dtype, np.integer) or np.issubdtype(rows.dtype, np.floating)
+    if rows.ndim != 2 or not kind_ok:
+        raise ValueError(f"unique_rows takes an (N, K) integer or float array, got shape {rows.shape} of {rows.dtype}")
     if len(rows) == 0:
         uniq, inverse, counts = rows[:0], np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    elif np.issubdtype(rows.dtype, np.floating):  # by one lexsort, first column most significant
+        order = np.lexsort(rows.T[::-1])
+        ordered = rows[order]
+        new = np.r_[True, (ordered[1:] != ordered[:-1]).any(axis=1)]
+        uniq = ordered[new]
+        inverse = np.empty(len(rows), dtype=np.int64)
+        inverse[order] = np.cumsum(new) - 1
+        counts = np.diff(np.r_[np.flatnonzero(new), len(rows)])
     else:
         lo = rows.min(axis=0).astype(np.int64)
         span = rows.max(axis=0).astype(np.int64) - lo + 1

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from bench.study_pattern import pane as make_pane
+from core.arrays import unique_rows
 from geometry.build import build_object
 from geometry.particles import tet_edge
 from sim.struck_surface import (
@@ -16,7 +17,6 @@ from sim.struck_surface import (
     _nearest_patch,
     _radius_of,
     _surface_particles,
-    _unique_rows,
     surface_frame,
     surface_radius_at,
 )
@@ -67,18 +67,15 @@ def test_a_body_without_free_faces_keeps_the_contact(body):
     assert surface_radius_at(ps, 5, point, normal, edge) == np.inf
 
 
-def test_unique_rows_are_numpys_unique_rows(body):
-    """`_unique_rows` (one lexsort) gives `np.unique(rows, axis=0)`: the same rows in the same order, on
-    the corners of every facing face of the body (shared corners repeat) and on rows with repeats and
-    -0.0 (equal to 0.0: either may stand for both, and `surface_radius` adds the point to it)."""
+def test_a_patchs_corners_by_unique_rows_are_numpys(body):
+    """The struck patch's distinct corners (`_radius_of`, by core.arrays.unique_rows' lexsort) are
+    `np.unique(corners, axis=0)`'s rows in its order, on the corners of every facing face of the body
+    (shared corners repeat)."""
     ps, _ = body
     point = ps.centroid.mean(0)
     tri, _, _ = _facing_faces(ps, _surface_particles(ps, 0), point, np.array([0.0, 1.0, 0.0]))
-    rng = np.random.default_rng(5)
-    small = rng.integers(-2, 3, (80, 3)).astype(float) * 0.5
-    small[rng.integers(0, 80, 10)] = -0.0
-    for rows in (tri.reshape(-1, 3) - point, small, small[:1], small[:0]):
-        want = np.unique(rows, axis=0)
-        got = _unique_rows(rows)
-        assert got.shape == want.shape and np.array_equal(got, want)
-        assert len(want) < len(rows) or len(rows) < 2  # the cases hold repeats
+    corners = tri.reshape(-1, 3) - point
+    want = np.unique(corners, axis=0)
+    got = unique_rows(corners)
+    assert got.shape == want.shape and np.array_equal(got, want)
+    assert len(want) < len(corners)  # the corners repeat
