@@ -11,6 +11,11 @@ becomes a sphere on its own (the paper's "unaided particles at sharp corners"). 
 sphere covers every member: max |x_k - c| + r_k. Ties among equally near candidates fall in
 scipy's k-d tree order.
 
+A subdivided child counts for the part of its parent's surface it stands for (`area_weights`): a
+group takes particles until they stand for n unsubdivided ones, so a crack's faces, made of small
+children, get spheres about as large as the rest of the body's (at most 3n particles a group, the
+candidates' count); a group of unsubdivided particles is the paper's n.
+
 Every body is grouped in one pass: the fragments of a split are tens of bodies, and one tree, one
 query and one grouping kernel serve them all (the same groups as a pass per body, tested). A whole
 object's build (`cache=True`) keeps its groups on disk (geometry/build_cache.py): the query is fast, but
@@ -76,13 +81,14 @@ def _morton_order(points: np.ndarray, first: np.ndarray, body_of: np.ndarray, bi
     return np.lexsort((key, body_of))
 
 
-def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache: bool) -> np.ndarray:
+def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache: bool,
+               weight: np.ndarray) -> np.ndarray:
     """(n,) group id of each row: the greedy grouping (geometry.boundary_groups) of the rows in Morton
     order over their candidates; read from the disk cache when `cache` (a whole object's build)."""
 
     def group() -> np.ndarray:
         near, ok = _query_candidates(points, rad, body_of, min(len(points), 3 * group_size), reach)
-        return greedy_groups(_morton_order(points, first, body_of), near, ok, group_size, 0)[0]
+        return greedy_groups(_morton_order(points, first, body_of), near, ok, group_size, 0, weight)[0]
 
     if not cache:
         return group()
@@ -91,6 +97,8 @@ def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache
 
     inputs = b"".join(np.asarray(a, t).tobytes() for a, t in ((points, np.float64), (rad, np.float64),
                                                               (body_of, np.int64)))
+    if (weight != 1.0).any():  # unsubdivided particles only (every build's): the keys of earlier versions
+        inputs += np.asarray(weight, np.float64).tobytes()
     key = digest("boundary-groups", f"{GROUPS_VERSION} scipy {package_version('scipy')}", inputs,
                  group_size=int(group_size), reach=float(reach))
 
@@ -132,6 +140,7 @@ def build_boundary_particles(
     rest_verts: np.ndarray | None = None,
     free_faces: np.ndarray | None = None,
     cache: bool = False,
+    weight: np.ndarray | None = None,
 ) -> BoundaryParticles:
     """Group the surface particles of every body into boundary spheres (Sect. 5.3).
 
@@ -139,7 +148,9 @@ def build_boundary_particles(
     surface (N,) bool: which particles take part (surface particles of live bodies);
     rest_verts (N,4,3) m and free_faces (N,4) bool (faces on the surface): optional; when given,
     spheres are pulled inside the surface (module docstring); cache: keep the groups on disk (whole
-    objects at their build, which the next run builds again).
+    objects at their build, which the next run builds again); weight (N,): the surface each particle
+    stands for, in unsubdivided particles (`area_weights`; default 1 each): a group takes members until
+    their weights sum to group_size.
     """
     if group_size < 1:
         raise ValueError(f"group_size must be >= 1, got {group_size}")
@@ -155,7 +166,8 @@ def build_boundary_particles(
     rows = idx[np.argsort(body[idx], kind="stable")]  # each body's surface particles together, ascending
     first, body_of = _by_body(body[rows])
     pts = centroid[rows]
-    gid = _group_ids(pts, radius[rows], body_of, first, group_size, reach, cache)  # ids count up body by body
+    area = np.ones(len(rows)) if weight is None else np.asarray(weight, np.float64)[rows]
+    gid = _group_ids(pts, radius[rows], body_of, first, group_size, reach, cache, area)  # ids count up body by body
     members = rows[np.argsort(gid, kind="stable")]
     g = np.sort(gid)
     start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)  # every group id has members
@@ -171,6 +183,21 @@ def build_boundary_particles(
         members=members,
     )
     return out if rest_verts is None else _chips_on_corners(out, rest_verts, mass)
+
+
+def area_weights(radius: np.ndarray, parent: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(len(ids),) the surface each particle of rows `ids` stands for in boundary groups, in units of its
+    unsubdivided parent's: (r / r_parent)^2 for a subdivided child whose parent row is in the set
+    (radius (N,) m and parent (N,) of every row; a parent outside it is -2 - its id, none -1), 1 otherwise.
+    A crack's faces are made of the children of the tets it cut (Sect. 5.2, 2-20 a tet): grouped four
+    by four they would be covered by spheres two to four times smaller than the rest of the body's,
+    which resolve no contact better (the body's other faces set its collision resolution) and made
+    Pots' spheres 3.5x as many after its fractures (docs/decisions.md, session 34)."""
+    w = np.ones(len(ids))
+    par = parent[ids]
+    child = np.flatnonzero(par >= 0)
+    w[child] = np.minimum((radius[ids[child]] / radius[par[child]]) ** 2, 1.0)
+    return w
 
 
 def _chips_on_corners(bp: BoundaryParticles, rest_verts: np.ndarray, mass: np.ndarray) -> BoundaryParticles:

@@ -30,7 +30,7 @@ import numpy as np
 
 from core.arrays import group_indices
 from core.errors import ConfigError
-from geometry.boundary import DEFAULT_GROUP_SIZE, build_boundary_particles
+from geometry.boundary import DEFAULT_GROUP_SIZE, area_weights, build_boundary_particles
 from geometry.particles import ParticleSet
 from geometry.tetmesh import TetMesh, signed_volumes
 from rigid.mass import mass_properties
@@ -150,6 +150,7 @@ def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray
         rest_verts=particles.rest_verts[ids],
         free_faces=free,
         cache=cache,
+        weight=area_weights(particles.radius, particles.parent, ids),
     )
 
 

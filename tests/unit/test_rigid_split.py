@@ -128,7 +128,9 @@ def test_split_of_a_static_pane_frees_only_the_unheld_shard(world):
 
 def test_boundary_grouping_kernel_equals_the_python_rule():
     """geometry/boundary_groups.py: the serial kernel groups exactly as the Python loop it replaced,
-    on random candidate lists with taken, free and self candidates, for several group sizes."""
+    on random candidate lists with taken, free and self candidates, for several group sizes, with
+    unsubdivided particles only (groups of n) and with subdivided children among them (weights < 1:
+    larger groups, and leftover children joining a neighbour's group)."""
     from geometry.boundary_groups import greedy_groups, greedy_groups_reference
 
     rng = np.random.default_rng(7)
@@ -145,6 +147,18 @@ def test_boundary_grouping_kernel_equals_the_python_rule():
         assert next_got == next_want
         assert np.array_equal(got, want)
         assert (got >= 5).all() and np.bincount(got - 5).max() <= size
+        weight = np.where(rng.random(n) < 0.6, rng.uniform(0.01, 0.5, n), 1.0)
+        got, next_got = greedy_groups(order, near, ok, size, 5, weight)
+        want, next_want = greedy_groups_reference(order, near, ok, size, 5, weight)
+        assert next_got == next_want
+        assert np.array_equal(got, want)
+        assert np.array_equal(np.unique(got), np.arange(5, next_got))  # every id has members
+        members = np.bincount(got - 5)
+        children = np.bincount(got - 5, weights=weight < 1.0)
+        # unsubdivided particles alone: the paper's groups of n, or one on its own
+        assert np.all(np.isin(members[children == 0], (1, size)))
+        # fewer than n together: only a leftover child joining another child
+        assert np.all(children[(members > 1) & (members < size)] >= 2)
 
 
 def test_a_bodys_spheres_keep_consecutive_ids(taichi_runtime):
