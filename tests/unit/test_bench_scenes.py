@@ -12,13 +12,15 @@ import pytest
 from bench import bench_scenes as bs
 
 
-def stats(frame_ms: list[float], events: list[dict], scripted: list[bool] | None = None) -> dict:
+def stats(frame_ms: list[float], events: list[dict], scripted: list[bool] | None = None,
+          stages: list[dict] | None = None) -> dict:
     scripted = scripted or [False] * len(events)
     return {
         "frames": len(frame_ms),
         "events": [{"scripted": s} for s in scripted],
         "table1": {"fragments": 7, "pieces": {"debris": 4, "small": 1, "large": 2, "total": 7}},
         "timings": {"frame_wall_ms": frame_ms, "wall_s": sum(frame_ms) / 1e3, "build_s": 0.5,
+                    "per_frame_ms": stages or [{"rigid": 1.0}] * len(frame_ms),
                     "table2_events": events, "first_frame_unix": 1000.0 + frame_ms[0] / 1e3},
         "_bench": {"launched": 999.0, "peak_mb": 321.0},
     }
@@ -36,6 +38,13 @@ def test_summary_figures_are_the_runs_own():
     assert r["fps_bare"] == pytest.approx(100.0)
     assert r["fps_average"] == pytest.approx(20 / 2.35)
     assert r["longest_ms"] == 100.0  # after the first frame
+    assert r["quiet_longest_ms"] == 100.0  # no frame had an event
+    # frames 10-19 analysed an impact (one of them also split a body): the longest without is frame 1-9's
+    stages = [{"rigid": 1.0}] * 10 + [{"rigid": 1.0, "fracture.analysis": 5.0}] * 9 + [
+        {"rigid": 1.0, "fracture.analysis": 5.0, "fracture.split": 4.0}]
+    assert bs.summarise("pot", stats(frame_ms, ev, stages=stages), stats([10.0] * 20, []))["quiet_longest_ms"] == 50.0
+    assert bs.summarise("pot", stats(frame_ms, ev, stages=[{"fracture.analysis": 1.0}] * 20),
+                        stats([10.0] * 20, []))["quiet_longest_ms"] is None
     assert r["first_frame_s"] == pytest.approx(1.9) and r["peak_mb"] == 321.0
     later = [stats([2500.0, 10.0], []), stats([1500.0, 10.0], [])]  # two more launches: 3.5 s and 2.5 s
     median = bs.summarise("pot", stats(frame_ms, ev), stats([10.0] * 20, []), later)["first_frame_s"]
