@@ -24,9 +24,11 @@ from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
 from sim.struck_surface import SurfaceRows, surface_frame, surface_radius_at
 
-# A piece breaks again only when it holds at least this many physical-particle volumes of its object:
-# about one analysed neighbourhood (a kernel of support 2 spacings holds 4/3 pi 2^3 = 34 of them), the
-# least Algorithm 1 can resolve a stress field in; smaller pieces fly and land as they are.
+# A piece breaks again only when it holds at least this many physical-particle volumes of its object;
+# smaller pieces fly and land as they are. Chosen as one kernel's particles when a support was read in
+# particle spacings (4/3 pi 2^3 = 34); a support of 2 tet edges a reaches 4/3 pi (2a)^3 = 284 volumes of
+# a tet of edge a (a^3 / 6 sqrt 2), so this is about a ninth of a neighbourhood. Left as it is: changing
+# it changes every scene's pieces (docs/decisions.md, session 33).
 MIN_BREAKABLE_PARTICLES = 32
 
 
