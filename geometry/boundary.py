@@ -14,7 +14,8 @@ scipy's k-d tree order.
 A subdivided child counts for the part of its parent's surface it stands for (`area_weights`): a
 group takes particles until they stand for n unsubdivided ones, so a crack's faces, made of small
 children, get spheres about as large as the rest of the body's (at most 3n particles a group, the
-candidates' count); a group of unsubdivided particles is the paper's n.
+candidates' count), and a child that cannot start a group joins the sphere of its nearest grouped
+child instead of staying alone; a group of unsubdivided particles is the paper's n.
 
 Every body is grouped in one pass: the fragments of a split are tens of bodies, and one tree, one
 query and one grouping kernel serve them all (the same groups as a pass per body, tested). A whole
@@ -97,7 +98,7 @@ def _group_ids(points, rad, body_of, first, group_size: int, reach: float, cache
 
     inputs = b"".join(np.asarray(a, t).tobytes() for a, t in ((points, np.float64), (rad, np.float64),
                                                               (body_of, np.int64)))
-    if (weight != 1.0).any():  # unsubdivided particles only (every build's): the keys of earlier versions
+    if (weight != 1.0).any():  # subdivided children among the rows; a build's (all 1) keeps its earlier key
         inputs += np.asarray(weight, np.float64).tobytes()
     key = digest("boundary-groups", f"{GROUPS_VERSION} scipy {package_version('scipy')}", inputs,
                  group_size=int(group_size), reach=float(reach))

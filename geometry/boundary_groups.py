@@ -64,7 +64,8 @@ def greedy_groups(order: np.ndarray, near: np.ndarray, ok: np.ndarray, group_siz
     """Group ids (n,) int64 of n surface particles visited in `order` (n,), each taking free
     candidates among `near` (n,k) local indices where `ok` (n,k) bool, nearest first, until the
     group's area `weight` (n,) (1 for an unsubdivided particle: geometry.boundary.area_weights) reaches
-    `group_size`, and staying alone when that took fewer than `group_size` particles; ids count up from
+    `group_size`; when that took fewer than `group_size` particles, a child (weight < 1) joins the group
+    of its nearest grouped child candidate and any other particle stays alone. Ids count up from
     `first_id`. Returns (ids, next free id)."""
     weight = np.ones(len(near)) if weight is None else np.asarray(weight, np.float64)
     if not taichi_started():  # geometry used on its own (`main.py check`): the same rule in Python
