@@ -115,6 +115,10 @@ def init_taichi(
             )
         return _runtime
 
+    from core.taichi_frontend import install_before_import
+
+    install_before_import()  # Taichi's own kernels, defined while it is imported, gain too
+
     import taichi as ti
 
     from core.taichi_frontend import install as fast_frontend

@@ -1,8 +1,8 @@
 """Start-up (core/taichi_frontend.py, core/runtime.py): the memoised TextWrapper, source excerpts and
 source lookups, the excerpts formatted when read and a field's stack text give Taichi's frontend
 exactly what the standard ones give, so a kernel's compile error and warning read the same and a
-method kernel is still told from a plain one, and init_taichi installs them; the offline kernel
-cache is large enough not to evict."""
+method kernel is still told from a plain one, and init_taichi installs them (Taichi's own kernels,
+defined while it is imported, too); the offline kernel cache is large enough not to evict."""
 
 import functools
 import inspect
@@ -44,6 +44,42 @@ def test_memoised_wrap_equals_the_standard_one(text):
 
 def test_installed_by_init_taichi():
     assert ast_transformer_utils.TextWrapper is MemoTextWrapper
+
+
+# A fresh process: how often Taichi's `import` reads a decorator's line through inspect, with and without
+# the finder that `init_taichi` puts in place first (core.taichi_frontend.install_before_import).
+_IMPORT_CHILD = """
+import inspect, sys
+calls = []
+original = inspect.getframeinfo
+inspect.getframeinfo = lambda *a, **k: calls.append(1) or original(*a, **k)
+if sys.argv[1] == "hook":
+    from core.taichi_frontend import _PatchOnLoad, install_before_import
+    assert install_before_import() and not install_before_import()  # one finder at a time
+import taichi
+from taichi.lang import kernel_impl
+from core.taichi_frontend import _PatchOnLoad, install_before_import
+assert not any(isinstance(f, _PatchOnLoad) for f in sys.meta_path)  # it took itself out
+assert not install_before_import()  # Taichi is imported: nothing to do
+print(len(calls), getattr(kernel_impl._inside_class, "memoised", False))
+"""
+
+
+def test_taichis_own_kernels_are_defined_without_inspect_when_hooked_before_import():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+
+    def child(mode: str) -> list[str]:
+        run = subprocess.run([sys.executable, "-c", _IMPORT_CHILD, mode], cwd=root, capture_output=True, text=True,
+                             timeout=120, check=True)
+        return run.stdout.splitlines()[-1].split()  # after Taichi's banner
+
+    assert child("hook") == ["0", "True"]
+    calls, memoised = child("plain")
+    assert int(calls) > 20 and memoised == "False"  # what the finder spares: Taichi reads each one's line
 
 
 def _compile_error(monkeypatch, wrapper, pos_info) -> str:
