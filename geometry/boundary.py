@@ -22,6 +22,13 @@ query and one grouping kernel serve them all (the same groups as a pass per body
 object's build (`cache=True`) keeps its groups on disk (geometry/build_cache.py): the query is fast, but
 importing scipy for it costs a start 0.45 s, and the grouping kernel's first launch 50 ms.
 
+Groups kept through a split (`keep`, issue 16 item 3: an event's cost grows with its crack, not
+with the body): a fragment's surface away from the crack is the parent's, so a group of the parent
+whose members are all still surface particles of one fragment, with the same free faces, keeps its
+members; its sphere is then the parent's sphere, bit for bit (centre, radius and pull inside come
+from the members alone). Only the other surface particles (the crack's faces, and the groups it
+broke) are grouped by the rule above, among themselves. A chip's corner spheres are not kept.
+
 Departure from the paper (docs/decisions.md): with the members' free faces given, the sphere's
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
 the surface (the paper keeps the mean position); one-particle spheres stay where they are. A
@@ -57,9 +64,42 @@ class BoundaryParticles:
     body: np.ndarray  # (B,) int32: body id
     member_start: np.ndarray  # (B + 1,) int64: CSR offsets into `members`
     members: np.ndarray  # (M,) int64: particle indices of each sphere
+    member_faces: np.ndarray | None = None  # (M,) uint8: each member's free faces (bit k: face k), where given
+    corner: np.ndarray | None = None  # (B,) bool: a chip's corner sphere (geometry/chip_corners.py), not a group's
 
     def __len__(self) -> int:
         return len(self.mass)
+
+
+@dataclass
+class KeptGroups:
+    """Groups of an earlier grouping, offered to `build_boundary_particles` (module doc, "Groups kept
+    through a split")."""
+
+    member_start: np.ndarray  # (G + 1,) int64: CSR offsets into `members`
+    members: np.ndarray  # (M,) int64: each group's rows in the call's arrays, -1 where the particle is gone
+    member_faces: np.ndarray  # (M,) uint8: each member's free faces when the group was made (bit k: face k)
+
+
+def face_bits(free_faces: np.ndarray) -> np.ndarray:
+    """(N,) uint8: the free faces (N, 4) bool of each particle as bits (face k: bit k)."""
+    return (np.asarray(free_faces, np.uint8) << np.arange(4, dtype=np.uint8)).sum(axis=1).astype(np.uint8)
+
+
+def _kept_rows(keep: KeptGroups, surface: np.ndarray, body: np.ndarray, bits: np.ndarray) -> np.ndarray:
+    """(N,) int64: the kept group of each row (its index in `keep`), -1 for a row in none: a group is
+    kept when every member is there, on the surface, with the faces it had, and all in one body."""
+    start, m = np.asarray(keep.member_start, np.int64), np.asarray(keep.members, np.int64)
+    kept = np.full(len(surface), -1, np.int64)
+    if len(m) == 0:
+        return kept
+    group_of = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    row = np.maximum(m, 0)
+    ok = (m >= 0) & surface[row] & (bits[row] == keep.member_faces)
+    ok &= body[row] == body[row[start[:-1]]][group_of]
+    whole = np.bincount(group_of, weights=~ok, minlength=len(start) - 1) == 0
+    kept[row[whole[group_of]]] = group_of[whole[group_of]]
+    return kept
 
 
 def _by_body(body_rows: np.ndarray):
@@ -142,6 +182,7 @@ def build_boundary_particles(
     free_faces: np.ndarray | None = None,
     cache: bool = False,
     weight: np.ndarray | None = None,
+    keep: KeptGroups | None = None,
 ) -> BoundaryParticles:
     """Group the surface particles of every body into boundary spheres (Sect. 5.3).
 
@@ -151,7 +192,8 @@ def build_boundary_particles(
     spheres are pulled inside the surface (module docstring); cache: keep the groups on disk (whole
     objects at their build, which the next run builds again); weight (N,): the surface each particle
     stands for, in unsubdivided particles (`area_weights`; default 1 each): a group takes members until
-    their weights sum to group_size.
+    their weights sum to group_size; keep: an earlier grouping whose groups stay where they still hold
+    (with free_faces given; module doc). Each body's kept groups come first, in their order.
     """
     if group_size < 1:
         raise ValueError(f"group_size must be >= 1, got {group_size}")
@@ -163,15 +205,29 @@ def build_boundary_particles(
         return BoundaryParticles(
             np.zeros((0, 3)), z, z.copy(), np.zeros(0, np.int32), np.zeros(1, np.int64), np.zeros(0, np.int64)
         )
+    bits = face_bits(free_faces) if free_faces is not None else None
+    kept = np.full(len(surface), -1, np.int64)
+    if keep is not None and bits is not None:
+        kept = _kept_rows(keep, np.asarray(surface, bool), np.asarray(body), bits)
+    rest = idx[kept[idx] < 0]
     # every body at once (a split makes tens of fragments: one query and one grouping instead of one each)
-    rows = idx[np.argsort(body[idx], kind="stable")]  # each body's surface particles together, ascending
-    first, body_of = _by_body(body[rows])
-    pts = centroid[rows]
-    area = np.ones(len(rows)) if weight is None else np.asarray(weight, np.float64)[rows]
-    gid = _group_ids(pts, radius[rows], body_of, first, group_size, reach, cache, area)  # ids count up body by body
-    members = rows[np.argsort(gid, kind="stable")]
-    g = np.sort(gid)
-    start = np.r_[0, np.cumsum(np.bincount(g))].astype(np.int64)  # every group id has members
+    rows = rest[np.argsort(body[rest], kind="stable")]  # each body's surface particles together, ascending
+    gid = np.zeros(0, np.int64)
+    if len(rows):
+        first, body_of = _by_body(body[rows])
+        area = np.ones(len(rows)) if weight is None else np.asarray(weight, np.float64)[rows]
+        gid = _group_ids(centroid[rows], radius[rows], body_of, first, group_size, reach, cache, area)
+    held = np.flatnonzero(kept >= 0)
+    everyone = np.concatenate([held, rows])
+    # groups body by body, each body's kept ones first; a group's members in row order
+    fresh = np.r_[np.zeros(len(held), np.int64), np.ones(len(rows), np.int64)]
+    group = np.concatenate([kept[held], gid])
+    order = np.lexsort((everyone, group, fresh, body[everyone]))
+    members = everyone[order]
+    key = np.stack([body[members], fresh[order], group[order]], 1)
+    new_group = np.r_[True, (key[1:] != key[:-1]).any(axis=1)]
+    g = np.cumsum(new_group) - 1
+    start = np.r_[np.flatnonzero(new_group), len(members)].astype(np.int64)
     c, rad, msum = _group_spheres(g, start, centroid[members], radius[members], mass[members])
     if rest_verts is not None and free_faces is not None:
         c = _pull_inside(c, rad, g, start, centroid[members], rest_verts[members], free_faces[members])
@@ -182,6 +238,8 @@ def build_boundary_particles(
         body=body[members[start[:-1]]].astype(np.int32),
         member_start=start,
         members=members,
+        member_faces=None if bits is None else bits[members],
+        corner=np.zeros(len(c), bool),
     )
     return out if rest_verts is None else _chips_on_corners(out, rest_verts, mass)
 
@@ -224,6 +282,9 @@ def _chips_on_corners(bp: BoundaryParticles, rest_verts: np.ndarray, mass: np.nd
     start = np.r_[0, np.cumsum(size[order])].astype(np.int64)
     old_first = np.r_[0, np.cumsum(size)[:-1]]  # each sphere's first entry in `members` before the reorder
     entry = np.repeat(old_first[order] - start[:-1], size[order]) + np.arange(start[-1])
+    faces = None
+    if bp.member_faces is not None:  # a corner sphere's member: its faces are not read (corners are never kept)
+        faces = np.concatenate([bp.member_faces[keep[sphere_of]], np.zeros(len(member), np.uint8)])[entry]
     return BoundaryParticles(
         position=np.concatenate([bp.position[keep], pos])[order],
         radius=np.concatenate([bp.radius[keep], rad])[order],
@@ -231,6 +292,8 @@ def _chips_on_corners(bp: BoundaryParticles, rest_verts: np.ndarray, mass: np.nd
         body=body[order].astype(np.int32),
         member_start=start,
         members=members[entry],
+        member_faces=faces,
+        corner=np.r_[np.zeros(int(keep.sum()), bool), np.ones(len(pos), bool)][order],
     )
 
 

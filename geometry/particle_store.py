@@ -29,7 +29,7 @@ import numpy as np
 import taichi as ti
 
 from geometry.particles import KIND_SUBDIVIDED, ParticleSet
-from geometry.store_checks import k_first_invalid
+from geometry.store_checks import host_first_invalid, k_first_invalid
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
@@ -357,7 +357,7 @@ class ParticleStore:
         nothing = np.zeros(0, np.int32)
         launches = [lambda: self._select([]), lambda: self._gather(nothing),  # the event's largest kernels first
                     lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
-                    self.first_invalid, lambda: self.body_totals(1),
+                    lambda: self.first_invalid(device=True), lambda: self.body_totals(1, device=True),
                     *(functools.partial(_k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
                     lambda: _k_compact_extra(0, self.link_extra, self.link_extra_alive)]
         return [functools.partial(self._unchanged, f) for f in launches]
@@ -397,8 +397,15 @@ class ParticleStore:
             self.body_stamp[int(b)] = self.version
 
     # ---- reading ---------------------------------------------------------------------------------
-    def body_totals(self, n_bodies: int) -> tuple[np.ndarray, np.ndarray]:
-        """(alive particles (B,), their mass (B,) kg) per body id below n_bodies: one kernel, B rows back."""
+    def body_totals(self, n_bodies: int, device: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(alive particles (B,), their mass (B,) kg) per body id below n_bodies: from the host copy the
+        store keeps while nothing changed (as `first_invalid`), else (or with `device`) one kernel, B
+        rows back."""
+        kept = None if device else self.kept_host()
+        if kept is not None:
+            rows = np.flatnonzero(kept.alive & (kept.body >= 0) & (kept.body < n_bodies))
+            return (np.bincount(kept.body[rows], minlength=n_bodies).astype(np.int32),
+                    np.bincount(kept.body[rows], weights=np.asarray(kept.mass[rows], np.float64), minlength=n_bodies))
         count = np.zeros(max(1, n_bodies), dtype=np.int32)
         mass = np.zeros(max(1, n_bodies), dtype=np.float64)
         _k_body_totals(self.count, self.particle_alive, self.particle_body, self.particle_mass, count, mass)
@@ -412,12 +419,17 @@ class ParticleStore:
         self.transfers.append(("take_mass", len(ids)))
         return out
 
-    def first_invalid(self) -> dict[str, int]:
-        """Per check, the first alive particle that fails it (geometry.store_checks), or -1."""
-        first = np.zeros(5, dtype=np.int32)
-        k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
-                        self.particle_rest_verts, self.particle_volume, self.particle_mass, self.particle_kernel,
-                        first)
+    def first_invalid(self, device: bool = False) -> dict[str, int]:
+        """Per check, the first alive particle that fails it (geometry.store_checks), or -1: on the host
+        copy the store keeps while nothing changed (the build's: a first frame compiles no kernel for
+        it), else (or with `device`) by one kernel over the store."""
+        if self.kept_host() is not None and not device:
+            first = host_first_invalid(self._host[1], self._host[2] if self.has_kernels else None)
+        else:
+            first = np.zeros(5, dtype=np.int32)
+            k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
+                            self.particle_rest_verts, self.particle_volume, self.particle_mass,
+                            self.particle_kernel, first)
         names = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
         return {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
 

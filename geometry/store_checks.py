@@ -1,10 +1,12 @@
 """The particle store's validity check (geometry/particle_store.py, `ParticleStore.first_invalid`; run
 by sim/guards.py whenever fracture changed the particles): per check, the first alive particle whose
 rest data is not finite or not physical. One kernel over the store's ndarrays (compiled once for any
-capacity).
+capacity), and the same checks in numpy for a host copy of the store (`host_first_invalid`: a run's
+first frame checks the build's particles without compiling the kernel, 0.1 s of its start).
 No `from __future__ import annotations` here: Taichi reads the kernel's annotations as objects.
 """
 
+import numpy as np
 import taichi as ti
 
 Arr = ti.types.ndarray()
@@ -50,4 +52,27 @@ def k_first_invalid(n: ti.i32, check_kernel: ti.i32, particle_alive: Arr, partic
                     ti.atomic_min(first[c], i)
 
 
-__all__ = ["k_first_invalid"]
+def host_first_invalid(ps, kernel_G) -> np.ndarray:
+    """(5,) int: `k_first_invalid`'s answer for a host ParticleSet and its kernel tensors (N, 3, 3)
+    (None: not checked), in float64: per check, the first alive particle that fails it, or N."""
+    n = len(ps)
+    alive = np.asarray(ps.alive, bool)
+
+    def positive(v):
+        v = np.asarray(v, np.float64)
+        return (np.abs(v) < 1e300) & (v > 0.0)
+
+    bad = [~(np.abs(np.asarray(ps.centroid, np.float64)) < 1e300).all(axis=1),
+           ~(np.abs(np.asarray(ps.rest_verts, np.float64)) < 1e300).reshape(n, -1).all(axis=1),
+           ~positive(ps.volume), ~positive(ps.mass), np.zeros(n, bool)]
+    if kernel_G is not None:
+        k = np.asarray(kernel_G, np.float64)
+        g = 0.5 * (k + np.swapaxes(k, 1, 2))
+        m2 = g[:, 0, 0] * g[:, 1, 1] - g[:, 0, 1] * g[:, 1, 0]
+        with np.errstate(invalid="ignore", over="ignore"):
+            m3 = np.linalg.det(g)
+        bad[4] = ~((np.abs(m3) < 1e300) & (g[:, 0, 0] > 0.0) & (m2 > 0.0) & (m3 > 0.0))
+    return np.array([int(np.argmax(b & alive)) if (b & alive).any() else n for b in bad], np.int64)
+
+
+__all__ = ["host_first_invalid", "k_first_invalid"]

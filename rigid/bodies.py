@@ -136,9 +136,11 @@ def surface_mask(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray) ->
 
 
 def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray, group_size: int,
-                     cache: bool = False):
+                     cache: bool = False, keep=None):
     """Boundary spheres (geometry.boundary) of each label's surface particles; body = label index;
-    `cache`: the groups through the disk cache (a whole object's build)."""
+    `cache`: the groups through the disk cache (a whole object's build); `keep`: the groups of the
+    body these particles were (geometry.boundary.KeptGroups, members as positions in `ids`), kept
+    where the split left them whole. The spheres' members are positions in `ids`."""
     free = free_faces(particles, ids, labels)
     return build_boundary_particles(
         particles.centroid[ids],
@@ -151,6 +153,7 @@ def boundary_spheres(particles: ParticleSet, ids: np.ndarray, labels: np.ndarray
         free_faces=free,
         cache=cache,
         weight=area_weights(particles.radius, particles.parent, ids),
+        keep=keep,
     )
 
 
@@ -212,12 +215,15 @@ def split_body(
     labels,
     group_size: int = DEFAULT_GROUP_SIZE,
     static_labels=None,
+    spheres=None,
 ) -> list[int]:
     """Replace body `body_id` by one body per distinct label; returns the new ids in label order.
 
     particle_ids: (N,) the parent's alive tet particles; labels: (N,) non-negative fragment label
     of each. static_labels: optional bool array indexed by label value, True = that child is static
     (a shard still held by a window frame); default: every child inherits the parent's flag.
+    spheres: the children's boundary spheres, `boundary_spheres(particles, particle_ids, dense labels,
+    group_size, ...)` made by the caller (which keeps their groups), else made here.
     Sets particles.body of each child's particles. See the module docstring for the kinematics.
     """
     ids = np.asarray(particle_ids, dtype=np.int64).reshape(-1)
@@ -245,7 +251,7 @@ def split_body(
     static = world.body_is_static(body_id)
     rest = float(world._hb.restitution[body_id])
     fric = float(world._hb.friction[body_id])
-    bp = boundary_spheres(particles, ids, dense, group_size)
+    bp = boundary_spheres(particles, ids, dense, group_size) if spheres is None else spheres
     by_label = [ids[g] for g in group_indices(dense)]  # every label 0..C-1 has particles (np.unique)
     sphere_cut = np.searchsorted(bp.body, np.arange(len(uniq) + 1))  # bp's spheres come in label order
     specs = []

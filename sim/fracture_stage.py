@@ -316,7 +316,8 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
     (K,3) m/s, the velocity the blow gives freed particles on top of the body's (`impact_push`).
     Returns the event record."""
     from geometry.fragments import apply_cracks
-    from rigid.bodies import split_body
+    from rigid.bodies import boundary_spheres, split_body
+    from sim.bodies import kept_groups, sphere_groups
 
     taken = take_body(world, body) if taken is None else taken
     info = world.bodies[body]
@@ -345,12 +346,15 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
         _free_particles(world, body, ps, debris, store_id[debris],
                         None if push is None else push(ps.centroid[debris]))
     labels = np.unique(rep.labels[ids], return_inverse=True)[1] if len(ids) else rep.labels[ids]
-    new_ids = []
+    new_ids, bp = [], None
     if len(ids):
         held = None
         if info.static:
             held = _held_labels(obj, info.bounds, ps.centroid[ids], labels)
-        new_ids = split_body(world.rigid, body, ps, ids, labels, group_size=obj.group_size, static_labels=held)
+        # the parent's sphere groups that the split leaves whole stay (geometry/boundary.py)
+        bp = boundary_spheres(ps, ids, labels, obj.group_size, keep=kept_groups(info.spheres, store_id[ids]))
+        new_ids = split_body(world.rigid, body, ps, ids, labels, group_size=obj.group_size, static_labels=held,
+                             spheres=bp)
     else:
         world.rigid.remove_bodies([body])
     world.store.put_body(taken.ids, ps, G, taken.extra_rows)
@@ -358,13 +362,13 @@ def cut_body(world, body: int, cracks: list, record: dict, taken: TakenBody | No
     del world.bodies[body]
     history = info.history + list(cracks)
     particle_volume = world.object_particle_volume[info.object_index]
-    for nb in new_ids:
+    for label, nb in enumerate(new_ids):
         mine = ps.alive & (ps.body == nb)
         big = float(ps.volume[mine].sum()) >= MIN_BREAKABLE_PARTICLES * particle_volume
         world.body_material[nb] = int(np.bincount(ps.material[mine]).argmax())
         world.bodies[nb] = BodyInfo(info.object_index, info.breakable and big,
                                     bool(world.rigid.body_is_static(nb)), info.thickness, info.resolution, history,
-                                    info.bounds)
+                                    info.bounds, sphere_groups(bp, store_id[ids], label))
     edge = tet_edge(ps.volume[debris])  # regular tet of each freed particle's volume
     record.update(
         cracks=len(cracks), fragments=len(new_ids), debris=int(len(debris)), new_bodies=[int(b) for b in new_ids],

@@ -220,8 +220,9 @@ class World:
 
     def _build_rigid(self) -> None:
         from geometry.chip_corners import CHIP_CORNERS
-        from rigid.bodies import add_tet_body
+        from rigid.bodies import add_tet_body, boundary_spheres
         from rigid.world import RigidConfig, RigidWorld
+        from sim.bodies import sphere_groups
 
         sc = self.cfg.scene
         n = len(self.particles)
@@ -252,14 +253,13 @@ class World:
             o = self.cfg.objects[sp["object"]]
             ids = np.arange(sp["start"], sp["stop"])
             mat = self.materials[int(ps.material[ids[0]])]
-            bid = add_tet_body(
-                self.rigid, ps, ids, group_size=o.group_size, v=o.velocity, w=o.angular_velocity,
-                static=o.static, restitution=mat.restitution, friction=mat.friction, cache=True,
-            )
+            bp = boundary_spheres(ps, ids, np.zeros(len(ids), np.int64), o.group_size, cache=True)
+            bid = add_tet_body(self.rigid, ps, ids, v=o.velocity, w=o.angular_velocity, static=o.static,
+                               restitution=mat.restitution, friction=mat.friction, spheres=(bp.position, bp.radius))
             c = ps.centroid[ids]
-            sp["body"] = bid
+            sp["body"] = bid  # its groups by store id: the store's rows are the build's particles
             self.bodies[bid] = BodyInfo(sp["object"], o.breakable, o.static, sp["thickness"], o.resolution,
-                                        bounds=(c.min(0), c.max(0)))
+                                        bounds=(c.min(0), c.max(0)), spheres=sphere_groups(bp, ids, 0))
             self.body_material[bid] = int(np.bincount(ps.material[ids]).argmax())
 
     def _rigid_grows(self, kind: str, needed: int, capacity: int) -> None:

@@ -107,14 +107,36 @@ def test_device_checks_agree_with_numpy():
     ps, G = _two_blocks()
     ps.alive[5] = False
     store = ParticleStore(ps, G)
-    count, mass = store.body_totals(3)
     alive = ps.alive
-    assert count.tolist() == np.bincount(ps.body[alive], minlength=3).tolist()
-    np.testing.assert_allclose(mass, np.bincount(ps.body[alive], weights=ps.mass[alive], minlength=3), rtol=1e-12)
-    assert set(store.first_invalid().values()) == {-1}
+    for device in (False, True):  # the build's host copy, then the kernel over the store
+        count, mass = store.body_totals(3, device=device)
+        assert count.tolist() == np.bincount(ps.body[alive], minlength=3).tolist()
+        np.testing.assert_allclose(mass, np.bincount(ps.body[alive], weights=ps.mass[alive], minlength=3),
+                                   rtol=1e-12)
+    assert set(store.first_invalid().values()) == {-1} and set(store.first_invalid(device=True).values()) == {-1}
     store.particle_volume[5] = -1.0  # a dead particle is not checked
     store.particle_mass[9] = np.nan
     store.particle_kernel[12, 1, 1] = -1.0
-    assert store.first_invalid() == dict(particle_centroid=-1, particle_rest_verts=-1, particle_volume=-1,
-                                         particle_mass=9, kernel_G=12)
+    assert store.first_invalid(device=True) == dict(particle_centroid=-1, particle_rest_verts=-1, particle_volume=-1,
+                                                    particle_mass=9, kernel_G=12)
+
+
+@pytest.mark.parametrize("bad", ["centroid", "rest_verts", "volume", "mass", "kernel"])
+def test_the_host_check_of_a_built_store_answers_as_the_kernel(bad):
+    """A store that nothing changed since its build checks the build's host copy (numpy); it names the
+    same particles as the kernel over the store does."""
+    from geometry.particle_store import ParticleStore
+
+    ps, G = _two_blocks()
+    ps.alive[5] = False
+    rows = {"centroid": ps.centroid, "rest_verts": ps.rest_verts, "volume": ps.volume, "mass": ps.mass, "kernel": G}
+    rows[bad][5] = np.nan  # dead: not checked
+    rows[bad][17] = -np.inf if bad != "kernel" else 0.0
+    rows[bad][40] = 0.0 if bad in ("volume", "mass") else np.nan
+    if bad == "kernel":
+        G[23] = -np.eye(3)  # finite, not positive definite
+    store = ParticleStore(ps, G)
+    assert store.kept_host() is not None
+    assert store.first_invalid() == store.first_invalid(device=True)
+    assert list(store.first_invalid().values()).count(17) == 1
     np.testing.assert_array_equal(store.take_mass(np.array([3, 0, 400])), ps.mass[[3, 0, 400]])
