@@ -49,24 +49,24 @@ FIGURES = (
               "subdivided particle method (right)",
            (Row("pot_basic", "basic link removal (paper: left)", "Pot1", 6),
             Row("pot", "adaptive subdivision (paper: right)", "Pot2", 14)),
-           "Both pots break along a Y of three cracks into three large pieces as they land, and those "
-           "break again when they land in turn (the cracks of a landing shard run through it: "
-           "docs/decisions.md, \"Crack arrest\"): seven large pieces (adaptive) and five (basic), plus chips "
-           "and single particles. Basic removal gives jagged cracks along tet faces and subdivision "
-           "straight ones, as in the paper; at this landing both pots give 9 pieces (the paper: 14 "
-           "adaptive, 6 basic). The first landing is the same in both (its shatter zone, 2.7 mm, holds no "
-           "particle to crush finer); the pieces' own landings decide the rest and are chaotic: over the "
-           "third rotation angle 6-14 degrees the adaptive pot gives 4-30 pieces (median 9) and the basic "
-           "one 6-30 (median 10). The adaptive pot's single particles are children cut off between the "
-           "cracks of its pieces' landings; the basic pot's landings free whole particles."),
+           "Both pots break along a Y of three cracks into three large pieces as they land, and those break "
+           "again when they land in turn (the cracks of a landing shard run through it: docs/decisions.md, "
+           "\"Crack arrest\"): four large pieces each, plus single particles. Basic removal gives jagged "
+           "cracks along tet faces and subdivision straight ones, as in the paper; at this landing the "
+           "adaptive pot gives 8 pieces and the basic one 11 (the paper: 14 adaptive, 6 basic). The first "
+           "landing is the same in both (its shatter zone, 2.7 mm, holds no particle to crush finer); the "
+           "pieces' own landings decide the rest and are chaotic: at the third rotation angle of 6, 8, 12 "
+           "and 14 degrees the adaptive pot gives 3, 34, 8 and 17 pieces and the basic one 19, 26, 12 and 8. "
+           "The adaptive pot's single particles are children cut off between the cracks of its pieces' "
+           "landings; the basic pot's landings free whole particles."),
     Figure(8, "The same scene of falling pot for anisotropic material with different kernel. The "
               "interaction along the surface is adjusted to 1/5 (left) and 3 (right) times",
            (Row("pot_aniso_low", "kernel x1/5 along the surface (paper: left)"),
             Row("pot_aniso_high", "kernel x3 along the surface (paper: right)")),
            "The kernel changes where the cracks run: x1/5 along the surface, the wall opens along long "
-           "cracks into five large pieces and 76 grains crushed where a piece lands on an edge; x3, the Y "
-           "of the first landing parts the pot into five large pieces and one grain. The paper shows both pots "
-           "broken, with different crack directions, and gives no counts for Fig. 8."),
+           "cracks into three large pieces and 36 grains crushed where a piece lands on an edge; x3, the Y "
+           "of the first landing parts the pot into four large pieces, two small ones and one grain. The "
+           "paper shows both pots broken, with different crack directions, and gives no counts for Fig. 8."),
     Figure(9, "A ball collapses through glass window, breaks into a hole and crack propagates without "
               "destroying the global structure. Fracture surface normal is the same while different "
               "ball sizes lead to different radii. The radii of balls are 3 and 5",
@@ -80,15 +80,15 @@ FIGURES = (
                "the bottom two are zoom-ins from above",
            (Row("pots", "13 pots dropped (side view)", "Pots", 587),),
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
-           "each other (83 large pieces); of our 587 pieces (587 in the paper) 440 are "
-           "grains and particles shattered where shards strike each other and 64 are small (under 1% of a "
+           "each other (81 large pieces); of our 457 pieces (587 in the paper) 353 are "
+           "grains and particles shattered where shards strike each other and 23 are small (under 1% of a "
            "pot). No zoom-in from above: the sheet keeps one camera per "
            "scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
            "Our figurine is a procedural stand-in for the paper's pet mesh (no mesh file ships with the "
-           "paper). The ball splits it where it lands and the parts break again on the floor (57 pieces "
+           "paper). The ball splits it where it lands and the parts break again on the floor (30 pieces "
            "against the paper's 47) and scatter; the camera backs off to keep them in view, so the last "
            "frame shows them small."),
     Figure(12, "An ornament of Tai Chi diagram with two kinds of materials, the two parts show "
@@ -99,9 +99,10 @@ FIGURES = (
            "compression; 55 grains) and cracks run from it through the disc's thickness, one cutting a "
            "chord off the bottom; where they reach the slate they go on in the slate's own directions "
            "with the energy they had left, so the two materials crack in different directions in one blow "
-           "(the lines drawn on the slate). Here the disc then falls flat with its cracks closed: two large "
-           "pieces (the disc and the chord) and 55 grains, 57 in all against the paper's 87. The count "
-           "swings with the landing angle and the tet size (2-71 pieces over 76-84 degrees, the disc in up "
+           "(the lines drawn on the slate). Here the disc then falls flat and its slate's edge parts along "
+           "those cracks: five large pieces (the disc, the chord and three of the slate's), one small and 55 "
+           "grains, 61 in all against the paper's 87. The count "
+           "swings with the landing angle and the tet size (2-72 pieces over 76-84 degrees, the disc in up "
            "to seven large pieces; 4-80 over 7.6-13 mm, docs/decisions.md, \"An edge or a corner has no "
            "normal\")."),
 )
