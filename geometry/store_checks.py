@@ -63,7 +63,7 @@ def host_first_invalid(ps, kernel_G) -> np.ndarray:
         return (np.abs(v) < 1e300) & (v > 0.0)
 
     bad = [~(np.abs(np.asarray(ps.centroid, np.float64)) < 1e300).all(axis=1),
-           ~(np.abs(np.asarray(ps.rest_verts, np.float64)) < 1e300).reshape(n, -1).all(axis=1),
+           ~(np.abs(np.asarray(ps.rest_verts, np.float64)) < 1e300).reshape(n, 12).all(axis=1),
            ~positive(ps.volume), ~positive(ps.mass), np.zeros(n, bool)]
     if kernel_G is not None:
         k = np.asarray(kernel_G, np.float64)
