@@ -80,8 +80,8 @@ def test_a_fragment_keeps_the_groups_the_crack_left_whole_with_their_spheres(spl
 
 
 def test_every_surface_particle_is_in_one_sphere_kept_or_new(split_box):
-    """The kept groups and the new ones cover each fragment's surface once, its mass counted once,
-    each member inside its sphere; without `keep` the same surface is covered by a whole regrouping."""
+    """The kept groups and the new ones cover each fragment's surface once, with its mass counted once
+    and each member's faces as they are now; without `keep` a whole regrouping covers the same surface."""
     _, _, groups, cut, ids, labels = split_box
     surface = free_faces(cut, ids, labels).any(axis=1)
     for keep in (kept_groups(groups, ids), None):
