@@ -257,7 +257,7 @@ class World:
             bid = add_tet_body(self.rigid, ps, ids, v=o.velocity, w=o.angular_velocity, static=o.static,
                                restitution=mat.restitution, friction=mat.friction, spheres=(bp.position, bp.radius))
             c = ps.centroid[ids]
-            sp["body"] = bid  # its groups by store id: the store's rows are the build's particles
+            sp["body"] = bid  # (the store's rows are the build's: `ids` are the groups' store ids below)
             self.bodies[bid] = BodyInfo(sp["object"], o.breakable, o.static, sp["thickness"], o.resolution,
                                         bounds=(c.min(0), c.max(0)), spheres=sphere_groups(bp, ids, 0))
             self.body_material[bid] = int(np.bincount(ps.material[ids]).argmax())
