@@ -423,8 +423,9 @@ class ParticleStore:
         """Per check, the first alive particle that fails it (geometry.store_checks), or -1: on the host
         copy the store keeps while nothing changed (the build's: a first frame compiles no kernel for
         it), else (or with `device`) by one kernel over the store."""
-        if self.kept_host() is not None and not device:
-            first = host_first_invalid(self._host[1], self._host[2] if self.has_kernels else None)
+        kept = None if device else self.kept_host()
+        if kept is not None:
+            first = host_first_invalid(kept, self._host[2] if self.has_kernels else None)
         else:
             first = np.zeros(5, dtype=np.int32)
             k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,

@@ -50,15 +50,14 @@ def test_installed_by_init_taichi():
 # the finder that `init_taichi` puts in place first (core.taichi_frontend.install_before_import).
 _IMPORT_CHILD = """
 import inspect, sys
+from core.taichi_frontend import _PatchOnLoad, install_before_import  # imports no Taichi
 calls = []
 original = inspect.getframeinfo
 inspect.getframeinfo = lambda *a, **k: calls.append(1) or original(*a, **k)
 if sys.argv[1] == "hook":
-    from core.taichi_frontend import _PatchOnLoad, install_before_import
     assert install_before_import() and not install_before_import()  # one finder at a time
 import taichi
 from taichi.lang import kernel_impl
-from core.taichi_frontend import _PatchOnLoad, install_before_import
 assert not any(isinstance(f, _PatchOnLoad) for f in sys.meta_path)  # it took itself out
 assert not install_before_import()  # Taichi is imported: nothing to do
 print(len(calls), getattr(kernel_impl._inside_class, "memoised", False))
