@@ -34,9 +34,9 @@ def run_speed(speed: float, frames: int) -> dict:
     most = 0
     inner = rigid.step
 
-    def counted_step(dt, split=True):
+    def counted_step(dt, split=True, free=False):
         nonlocal most
-        inner(dt, split)
+        inner(dt, split, free)
         most = max(most, rigid._nc)
 
     rigid.step = counted_step

@@ -19,21 +19,27 @@ from rigid.kernel_math import (
 
 # --------------------------------------------------------------------------- 2. derived data
 @ti.func
+def derive_body(s: ti.template(), b):
+    """Body b's per-step data: active flag, world inverse inertia, the pose at the step start."""
+    s.body_active[b] = 1 if is_active(s, b) else 0
+    s.body_wake[b] = 0
+    iw = mat3(0.0)
+    if s.body_alive[b] == 1 and s.body_static[b] == 0:
+        r = q_to_mat(s.body_q[b])
+        iw = r @ s.body_inv_inertia[b] @ r.transpose()
+    s.body_inv_inertia_world[b] = iw
+    s.body_x0[b] = s.body_x[b]
+    s.body_r0[b] = q_to_mat(s.body_q[b])
+    s.body_dx[b] = vec3(0.0)
+    s.body_dr[b] = ti.Matrix.identity(float, 3)
+    s.body_pv[b] = vec3(0.0)
+    s.body_pw[b] = vec3(0.0)
+
+
+@ti.func
 def derive(s: ti.template(), nb: ti.i32, ns: ti.i32, dt: float):
     for b in range(nb):
-        s.body_active[b] = 1 if is_active(s, b) else 0
-        s.body_wake[b] = 0
-        iw = mat3(0.0)
-        if s.body_alive[b] == 1 and s.body_static[b] == 0:
-            r = q_to_mat(s.body_q[b])
-            iw = r @ s.body_inv_inertia[b] @ r.transpose()
-        s.body_inv_inertia_world[b] = iw
-        s.body_x0[b] = s.body_x[b]
-        s.body_r0[b] = q_to_mat(s.body_q[b])
-        s.body_dx[b] = vec3(0.0)
-        s.body_dr[b] = ti.Matrix.identity(float, 3)
-        s.body_pv[b] = vec3(0.0)
-        s.body_pw[b] = vec3(0.0)
+        derive_body(s, b)
     s.max_reach[None] = 0.0
     for i in range(ns):
         b = s.bp_body[i]

@@ -4,8 +4,8 @@ does not wait for what only a contact needs; sim/warm_up.py).
 A lower bound, from the host's copy of the world, in two passes:
 - Bounding spheres: each body's bounding sphere about its centre of mass (`body_reach`, which
   rotation does not move), its velocity and gravity. Two moving bodies fall together, so their gap
-  closes no faster than their relative speed; a moving body and a static one or a collider (a
-  half-space or a box) close by at most |v| t + |g| t^2 / 2.
+  closes no faster than their relative speed; a moving body and a static or sleeping one or a
+  collider (a half-space or a box) close by at most |v| t + |g| t^2 / 2.
 - Collision spheres, where the bounding spheres give a time sooner than the best so far (in that
   order): the least gap between the two bodies' spheres (or between a body's spheres and a
   collider), closed at the speed above plus each body's spin times its reach. A free body's spin can
@@ -65,7 +65,9 @@ class _Motion:
         ids = self.ids
         self.x, self.v = st.x[ids], st.v[ids]
         self.reach = world.body_reach()[ids].astype(np.float64)
-        self.static = world.static_mask()[ids]
+        # a sleeping body does not move until a contact wakes it: held like a static one (a body
+        # falling onto it closes the gap under gravity), and two held bodies never meet
+        self.static = world.static_mask()[ids] | st.asleep[ids]
         self.speed = np.where(self.static, 0.0, np.linalg.norm(self.v, axis=1))
         self.spin = np.zeros(len(ids))  # m/s: the fastest a point of the body can move about its centre
         for k in np.flatnonzero(~self.static & (np.linalg.norm(st.w[ids], axis=1) > 0.0)):

@@ -57,6 +57,11 @@ def sleep_islands(s: ti.template(), nb: ti.i32, nc: ti.i32, time_to_sleep: float
             ti.atomic_min(s.body_island_time[s.body_island[b]], s.body_sleep_time[b])
     for b in range(nb):
         if is_active(s, b) and s.body_island_time[s.body_island[b]] >= time_to_sleep:
-            s.body_asleep[b] = 1
-            s.body_v[b] = vec3(0.0)
-            s.body_w[b] = vec3(0.0)
+            fall_asleep(s, b)
+
+
+@ti.func
+def fall_asleep(s: ti.template(), b):
+    s.body_asleep[b] = 1
+    s.body_v[b] = vec3(0.0)
+    s.body_w[b] = vec3(0.0)

@@ -311,7 +311,13 @@ def restitute(
                 s.ct_ltot[c] += dl
     for b in range(nb):
         if is_active(s, b):
-            if s.body_v[b].norm() < sleep_lin and s.body_w[b].norm() < sleep_ang:
-                s.body_sleep_time[b] += dt
-            else:
-                s.body_sleep_time[b] = 0.0
+            count_slow_time(s, b, dt, sleep_lin, sleep_ang)
+
+
+@ti.func
+def count_slow_time(s: ti.template(), b, dt, sleep_lin, sleep_ang):
+    """Body b's sleep timer: how long it has been slower than the sleep speeds."""
+    if s.body_v[b].norm() < sleep_lin and s.body_w[b].norm() < sleep_ang:
+        s.body_sleep_time[b] += dt
+    else:
+        s.body_sleep_time[b] = 0.0

@@ -83,13 +83,31 @@ def travel_splits(world, dt: float) -> int:
     return max(1, math.ceil(ratio / limit))
 
 
-def rigid_step(world, dt: float, split: bool = True) -> None:
+def rigid_step(world, dt: float, split: bool = True, free: bool = False) -> None:
     """Advance a RigidWorld by dt seconds (dt checked by the caller), in `travel_splits` parts, or in
-    one where the caller has split the step already (split=False)."""
+    one where the caller has split the step already (split=False). `free`: the caller knows that no
+    contact can be made in this step (rigid/free_flight.py): the bodies move alone."""
     parts = travel_splits(world, dt) if split else 1
     for _ in range(parts):
-        _step(world, dt / parts)
+        (_free_step if free else _step)(world, dt / parts)
     world._forget_state()  # the bodies moved: the host's copy of their state is stale
+
+
+def _free_step(world, dt: float) -> None:
+    """One step of dt seconds with no contact: the stages of the module doc as they run without one."""
+    cfg = world.config
+    s, nb, g = world._s, world._nb, cfg.gravity
+    step_kernels.k_free_start(s, nb)
+    h = dt / cfg.substeps
+    for _ in range(cfg.substeps):
+        step_kernels.k_free_substep(s, nb, h, float(g[0]), float(g[1]), float(g[2]), cfg.linear_damping_per_s,
+                                    cfg.angular_damping_per_s, cfg.max_speed_mps,
+                                    cfg.max_rotation_per_step_rad / cfg.substeps)
+    step_kernels.k_free_end(s, nb, dt, cfg.sleep_linear_speed_mps, cfg.sleep_angular_speed_radps,
+                            cfg.time_to_sleep_s, bool(cfg.sleep_enabled))
+    world._nc = 0
+    world.time += dt
+    world.step_count += 1
 
 
 def _step(world, dt: float) -> None:
@@ -136,3 +154,41 @@ def _step(world, dt: float) -> None:
     lap("sleep")
     world.time += dt
     world.step_count += 1
+
+
+def warm_pieces(world) -> list:
+    """The full step's kernels, which the free steps before a first contact leave uncompiled
+    (rigid/free_flight.py), as pieces for sim/warm_up.py: each kernel's frontend (core.compile), then
+    its first launch on nothing (no body, sphere or contact). Those launches only reset scratch that
+    every step sets again (the grid, the contact count, the support levels, the fastest closing), and
+    the warm-start flag is put back. The store and the settings are read when a piece runs."""
+    from core.compile import precompile
+
+    def kernels() -> list:
+        cfg, s = world.config, world._s
+        g = cfg.gravity
+        out = [(step_kernels.k_broad_phase, (s, 0, 0, 0.0, cfg.speculative_margin_m)),
+               (narrow_phase.k_count, (s, 0, 0, 0, cfg.speculative_margin_m)),
+               (step_kernels.k_contacts, (s, 0, 0, 0, 0, cfg.speculative_margin_m, int(cfg.warm_start),
+                                          cfg.warm_start_factor, cfg.warm_start_max_depth_m, cfg.max_support_levels,
+                                          cfg.mass_ratio_cap > 0.0)),
+               (solver.k_substep, (s, 0, 0, 0.0, float(g[0]), float(g[1]), float(g[2]), 0.0, 0.0, 0.0, 0.0, 0, 0)),
+               (step_kernels.k_after_substeps, (s, 0, 0, 0.0, 0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0)),
+               (step_kernels.k_bookkeeping, (s, 0, 0, 0, 0.0, bool(cfg.sleep_enabled)))]
+        if cfg.mass_ratio_cap > 0.0:
+            out.append((solver.k_mass_scaling, (s, 0, cfg.mass_ratio_cap)))
+        return out
+
+    def frontend(k: int) -> None:
+        kernel, args = kernels()[k]
+        precompile(kernel, *args)
+
+    def launch(k: int) -> None:
+        kernel, args = kernels()[k]
+        valid = int(world._s.pc_valid[None])
+        kernel(*args)
+        world._s.pc_valid[None] = valid
+
+    from functools import partial
+
+    return [piece for k in range(len(kernels())) for piece in (partial(frontend, k), partial(launch, k))]

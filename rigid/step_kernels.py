@@ -14,6 +14,8 @@ scenes that stack bodies (taichi, Pots); the other stages compile to the same ar
 import taichi as ti
 
 from rigid import broad_phase, islands, narrow_phase, solver
+from rigid.integrate import integrate_body
+from rigid.kernel_math import is_active, vec3
 
 
 @ti.kernel
@@ -61,3 +63,44 @@ def fastest_closing(s: ti.template(), nc: ti.i32):
     for c in range(nc):
         if s.ct_ltot[c] > 0.0:
             ti.atomic_max(s.max_closing[None], -s.ct_vn0[c])
+
+
+
+# A step in which no contact can be made (rigid/free_flight.py says when) runs what the stages do
+# when they find none, through the same functions in loops of the same shape, so that LLVM compiles
+# the same arithmetic (the state is the full step's bit for bit): 1's pose at the step start, 7's
+# substeps, 9's sleep timers and 11's islands of one body each. No sphere, grid or contact is touched.
+@ti.kernel
+def k_free_start(s: ti.template(), nb: ti.i32):
+    """Stage 1 without the spheres."""
+    for b in range(nb):
+        broad_phase.derive_body(s, b)
+
+
+@ti.kernel
+def k_free_substep(s: ti.template(), nb: ti.i32, h: float, gx: float, gy: float, gz: float, lin_damp: float,
+                   ang_damp: float, max_speed: float, max_rot: float):
+    """Stage 7 without contacts (solver.k_substep's body loops)."""
+    g = vec3(gx, gy, gz)
+    for b in range(nb):
+        if is_active(s, b):
+            solver.body_forces(s, b, h, g, lin_damp, ang_damp, max_speed, max_rot)
+    for b in range(nb):
+        if is_active(s, b):
+            integrate_body(s, b, h)
+
+
+@ti.kernel
+def k_free_end(s: ti.template(), nb: ti.i32, dt: float, sleep_lin: float, sleep_ang: float, time_to_sleep: float,
+               sleeping: ti.template()):
+    """Stages 9 and 11 without contacts: sleep timers, then each body an island of its own; the
+    warm-start store is emptied (the full step would save no contact)."""
+    for b in range(nb):
+        if is_active(s, b):
+            solver.count_slow_time(s, b, dt, sleep_lin, sleep_ang)
+    if ti.static(sleeping):
+        for b in range(nb):
+            if is_active(s, b) and s.body_sleep_time[b] >= time_to_sleep:
+                islands.fall_asleep(s, b)
+    s.max_closing[None] = 0.0
+    s.pc_valid[None] = 0

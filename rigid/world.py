@@ -26,6 +26,7 @@ import numpy as np
 from core.errors import CapacityError, ConfigError
 from core.runtime import numpy_float
 from rigid import transfers
+from rigid.free_flight import FreeFlight
 from rigid.host_sync import HostSync
 from rigid.mass import MassProperties
 from rigid.quat import IDENTITY, quat_to_matrix
@@ -118,6 +119,7 @@ class RigidWorld(HostSync):
         self._sph_body = np.zeros(0, np.int32)
         self._col = dict(kind=[], x=[], q=[], n=[], half=[], restitution=[], friction=[])
         self._s.pc_valid[None] = 0
+        self.free_flight = FreeFlight(self)  # which frames before the first contact step the bodies alone
 
     def clear(self) -> None:
         """Remove every body and collider; keeps the capacity (and the compiled kernels)."""
@@ -449,12 +451,13 @@ class RigidWorld(HostSync):
         return e
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float, split: bool = True) -> None:
+    def step(self, dt: float, split: bool = True, free: bool = False) -> None:
         """Advance by dt seconds: the stages of rigid/step.py, in `travel_splits` parts (split=False: the
-        caller split the step already, as the World does to read impacts from every part)."""
+        caller split the step already, as the World does to read impacts from every part; free=True: the
+        caller knows no contact can be made, rigid/free_flight.py)."""
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and 0.0 < dt <= 0.1):
             raise ConfigError("rigid.dt", dt, "(0, 0.1] s")
-        rigid_step(self, dt, split)
+        rigid_step(self, dt, split, free)
 
 
 def _checked_spec(bid: int, sp: dict):

@@ -157,11 +157,11 @@ def install_step_guard(world) -> None:
         inner = rigid.step
         substeps = int(world.cfg.scene.substeps)
 
-        def rigid_step(dt: float, split: bool = True) -> None:
+        def rigid_step(dt: float, split: bool = True, free: bool = False) -> None:
             sub = rigid.step_count % substeps
             check_rigid(rigid, world.frame, f"before rigid step {rigid.step_count} (substep {sub} of frame "
                                             f"{world.frame}; changed since the previous step)")
-            inner(dt, split)
+            inner(dt, split, free)
             check_rigid(rigid, world.frame, f"in rigid step {rigid.step_count - 1} (substep {sub} of frame "
                                             f"{world.frame})")
 

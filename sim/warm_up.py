@@ -1,10 +1,12 @@
-"""When the kernels only fracture events launch are compiled (issue 16: start-up, and the first event
-as fast as the tenth).
+"""When the kernels that only contacts and fracture events launch are compiled (issue 16: start-up,
+and the first event as fast as the tenth).
 
 Taichi compiles a kernel at its first launch, even from its offline cache (10-25 ms for a small one,
-over 100 ms for the store's gather: docs/decisions.md, session 27), and the kernels only events and
-debris launch (sim.fracture_stage.warm_pieces), with the libraries an event imports, take 0.9-1.2 s
-(glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
+over 100 ms for the store's gather: docs/decisions.md, session 27). Two sets wait for a contact: the
+full rigid step's (rigid.step.warm_pieces: 1.9 s of frontend and JIT at a warm start; until the first
+contact can come, frames step the bodies alone, rigid/free_flight.py), and those that only events and
+debris launch (sim.fracture_stage.warm_pieces), with the libraries an event imports (0.9-1.2 s,
+glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
 end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs them
 in the time the simulation waits for it (`run_one` is its idle work: the pot's falling frames take
 8 ms to step and 45 ms to draw), none before the first frame, so that it is drawn sooner, provided the
@@ -31,12 +33,24 @@ SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possibl
 PIECE_FLOOR_S = 0.03
 
 
-class EventWarmUp:
+def warm_pieces(world) -> list:
+    """The pieces of a World: the full rigid step's kernels, then those of fracture events."""
+    pieces = []
+    if "rigid" in world.stages:
+        from rigid.step import warm_pieces as step_pieces
+
+        pieces += step_pieces(world.rigid)
+    if world.mode is not None:
+        from sim.fracture_stage import warm_pieces as event_pieces
+
+        pieces += event_pieces(world)
+    return pieces
+
+
+class WarmUp:
     """The warm-up pieces of one World, and when to run them (module doc)."""
 
     def __init__(self, world) -> None:
-        from sim.fracture_stage import warm_pieces
-
         self.world = world
         self.pieces = deque(warm_pieces(world))
         self.idle = False  # True where a drawing process gives the simulation idle time (run_one)
@@ -100,4 +114,4 @@ class EventWarmUp:
         return frames
 
 
-__all__ = ["EventWarmUp", "SAFETY_FRAMES"]
+__all__ = ["SAFETY_FRAMES", "WarmUp", "warm_pieces"]

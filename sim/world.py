@@ -91,18 +91,18 @@ class World:
         self.initial_mass = float(self.particles.mass[self.particles.alive].sum())
         self.store = ParticleStore(*self._input)
         self._input = None
-        self.warm_up = None  # sim.warm_up.EventWarmUp: the kernels only events launch, when they compile
-        if cfg.has("fracture"):
-            from sim.warm_up import EventWarmUp
+        from sim.warm_up import WarmUp
 
-            self.warm_up = EventWarmUp(self)
+        # the kernels only contacts and events launch, and when they compile
+        self.warm_up = WarmUp(self) if cfg.has("fracture") or cfg.has("rigid") else None
         if warm_events:
             self.warm_events()
         self.build_seconds = time.perf_counter() - t0
         check_time_step(self)
 
     def warm_events(self) -> None:
-        """Compile what the first fracture event would wait for, all that is left of it (sim/warm_up.py)."""
+        """Compile what the first contact and fracture event would wait for, all that is left of it
+        (sim/warm_up.py)."""
         if self.warm_up is not None:
             self.warm_up.run_all()
 
@@ -185,9 +185,7 @@ class World:
         for k, sp in enumerate(self._spawn):
             self.particles.body[sp["start"]:sp["stop"]] = k
         self.physical_count = len(self.particles)
-        # (P, 4) bool: tet faces with no face neighbour when built, i.e. the objects' surface at rest
-        # (render/session.py tells crack faces from it)
-        self.rest_open_faces = self.particles.links < 0
+        self.rest_open_faces = self.particles.links < 0  # (P, 4) bool: the surface at rest (render/session.py)
         # per scene object: one copy's mass (kg) and whether it can break (pieces by size class)
         self.object_mass: dict[int, float] = {}  # kg
         self.object_particle_volume: dict[int, float] = {}  # m^3: mean physical particle volume
@@ -323,7 +321,8 @@ class World:
         substep = [st for st in self.plan if st.phase == SUBSTEP]
         if substep:
             dt = self.dt_frame / sc.substeps
-            track = "fracture.events" in self.stages
+            free = "rigid" in self.stages and self.rigid.free_flight.frame_is_free(self.dt_frame, dt)
+            track = "fracture.events" in self.stages and not free
             for k in range(sc.substeps):
                 # a fast body splits the substep (rigid.step.travel_splits): impacts are read from every part
                 parts = self._travel_splits(dt)
@@ -333,7 +332,7 @@ class World:
                         self._substep_start = self.rigid.body_state()
                     for st in substep:
                         with self.timers.stage(st.name):
-                            self._run_stage(st.name, dt / parts, impacts)
+                            self._run_stage(st.name, dt / parts, impacts, free)
         for st in self.plan:
             if st.phase == FRAME:
                 with self.timers.stage(st.name):
@@ -352,10 +351,11 @@ class World:
 
         return travel_splits(self.rigid, dt)
 
-    def _run_stage(self, name: str, dt: float, impacts: dict[int, dict]) -> None:
-        """One substep or frame stage (sim/stages.py); fracture events run their own stages."""
+    def _run_stage(self, name: str, dt: float, impacts: dict[int, dict], free: bool = False) -> None:
+        """One substep or frame stage (sim/stages.py); fracture events run their own stages. `free`: no
+        contact can be made in this frame (rigid/free_flight.py)."""
         if name == "rigid":
-            self.rigid.step(dt, split=False)  # step_frame split the substep (travel_splits)
+            self.rigid.step(dt, split=False, free=free)  # step_frame split the substep (travel_splits)
         elif name == "debris":
             self.debris.step(dt)
         elif name == "fracture.events":

@@ -203,6 +203,36 @@ def test_event_kernels_compile_in_the_idle_frames_before_the_first_contact():
     assert info["event_imports"] == []  # nor imports anything (sim.fracture_stage.EVENT_MODULES)
 
 
+PILE = SPY + """
+phase = "build"
+from tests.regression.test_free_flight_frames import SPREAD
+w = World(load_scene("rigid_pile", SPREAD), warm_events=False)  # 13 frames before a contact can come
+w.warm_up.idle = True  # as under a drawing process: none before the first frame
+phase = "first frame"
+w.step_frame()
+free = w.rigid.free_flight.frames
+phase = "warm-up"
+w.warm_events()
+phase = "later"
+while w.rigid.n_contacts == 0:
+    w.step_frame()
+print(json.dumps(dict(compiled=compiled, free=free, on=w.rigid.free_flight.on)))
+"""
+
+
+def test_the_full_rigid_step_compiles_in_the_warm_up_not_at_the_first_contact():
+    """A frame before any contact can come steps the bodies alone (rigid/free_flight.py) and compiles
+    only that; the full step's kernels compile as warm-up pieces, and the first contact compiles none."""
+    info = _probe(PILE)
+    assert info["free"] == 1 and not info["on"]
+    first = {name for phase, name in info["compiled"] if phase == "first frame"}
+    full = {"k_broad_phase", "k_count", "k_contacts", "k_substep", "k_after_substeps", "k_bookkeeping"}
+    assert "k_free_substep" in first and not first & full
+    assert full <= {name for phase, name in info["compiled"] if phase == "warm-up"}
+    late = [name for phase, name in info["compiled"] if phase == "later"]
+    assert late == [], late
+
+
 def _probe(code: str) -> dict:
     out = subprocess.run([sys.executable, "-c", code.format(root=str(ROOT))], capture_output=True, text=True,
                          timeout=600, cwd=ROOT)

@@ -126,11 +126,11 @@ class MomentumLedger:
     def _dynamic(self) -> np.ndarray:
         return np.array([not self.rigid.body_is_static(b) for b in range(self.rigid.n_bodies)], dtype=bool)
 
-    def _step(self, dt: float, split: bool = True) -> None:
+    def _step(self, dt: float, split: bool = True, free: bool = False) -> None:
         rig = self.rigid
         st0 = rig.body_state()
         p0 = momentum(self.world, st0)
-        self._inner(dt, split)
+        self._inner(dt, split, free)
         st1 = rig.body_state()
         p1 = momentum(self.world, st1)
         dyn = self._dynamic()

@@ -136,3 +136,20 @@ def test_a_world_without_bodies_or_motion_has_no_contact_to_come(fresh):
     add_box_body(w, HALF, 1000.0, x=(0.0, 1.0, 0.0))
     add_box_body(w, HALF, 1000.0, x=(1.0, 1.0, 0.0))
     assert earliest_contact_s(w, w.config.gravity, 0.0) == math.inf  # they fall side by side
+
+
+def test_a_body_falling_onto_a_sleeping_one_closes_under_gravity(fresh):
+    """A sleeping body does not fall (rigid/free_flight.py relies on the bound): the pair is not
+    falling together, and the bound counts the upper body's fall."""
+    w = fresh
+    w.config.gravity = (0.0, 0.0, 0.0)
+    low = add_box_body(w, HALF, 800.0, x=(0.0, 1.0, 0.0))
+    while not w.body_state().asleep[low]:
+        w.step(DT)
+    w.config.gravity = (0.0, -G, 0.0)
+    high = add_box_body(w, HALF, 800.0, x=(0.0, 1.3, 0.0))
+    assert w.body_state().asleep[low]
+    bound = earliest_contact_s(w, w.config.gravity, w.config.speculative_margin_m)
+    gap = 0.3 + _lowest(w, high) - (-_lowest(w, low)) - w.config.speculative_margin_m
+    assert bound == pytest.approx(math.sqrt(2.0 * gap / G), rel=1e-9)  # the spheres' gap, closed in free fall
+    assert _made_at(w) + DT >= bound

@@ -1,5 +1,5 @@
 """sim/warm_up.py: the event kernels' warm-up pieces spread over the frames before the first contact
-by time (`EventWarmUp.run_share`): each frame takes its share of what is left, at least one piece,
+by time (`WarmUp.run_share`): each frame takes its share of what is left, at least one piece,
 and all have run by the last frame before a contact could come. Pieces here advance a clock of
 their own (no real time is measured)."""
 
@@ -10,7 +10,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from sim.warm_up import PIECE_FLOOR_S, EventWarmUp
+from sim.warm_up import PIECE_FLOOR_S, WarmUp
 
 
 class _Clock:
@@ -21,7 +21,7 @@ class _Clock:
         return self.now
 
 
-def _warm_up(durations) -> tuple[EventWarmUp, _Clock, list]:
+def _warm_up(durations) -> tuple[WarmUp, _Clock, list]:
     clock, ran = _Clock(), []
 
     def piece(k: int, d: float):
@@ -30,7 +30,7 @@ def _warm_up(durations) -> tuple[EventWarmUp, _Clock, list]:
             ran.append(k)
         return run
 
-    w = EventWarmUp.__new__(EventWarmUp)  # no World: only the spreading is under test
+    w = WarmUp.__new__(WarmUp)  # no World: only the spreading is under test
     w.pieces = deque(piece(k, d) for k, d in enumerate(durations))
     w.clock, w.spent, w.ran, w.idle = clock, 0.0, 0, True
     return w, clock, ran
@@ -45,7 +45,7 @@ def test_pieces_are_spread_by_time_and_all_run_before_the_contact():
     for left in range(frames, 0, -1):  # frames before a contact could come, this one included
         t0 = clock.now
         if left == 1:
-            w.run_all()  # EventWarmUp.before_frame: the last frame runs what is left
+            w.run_all()  # WarmUp.before_frame: the last frame runs what is left
         else:
             share = max(w.spent / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
             n0 = len(w.pieces)
