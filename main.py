@@ -40,15 +40,28 @@ def _init(args: argparse.Namespace) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    if args.frames is not None and args.frames < 1:
+        from core.errors import ConfigError
+
+        raise ConfigError("--frames", args.frames, "an integer >= 1")
+    from render.draw_process import DrawingProcess, draws_apart
+
+    # started first thing (its imports and Taichi overlap this process's), told what to draw later
+    drawing = DrawingProcess() if draws_apart(args.renderer, not args.draw_here) else None
+    try:
+        return _run(args, drawing)
+    except BaseException:
+        if drawing is not None:
+            drawing.abandon()  # a second call, after the run's own, does nothing
+        raise
+
+
+def _run(args: argparse.Namespace, drawing) -> int:
     from pathlib import Path
 
     import anisofrac as af
     from sim.run import RunOptions, start_run
 
-    if args.frames is not None and args.frames < 1:
-        from core.errors import ConfigError
-
-        raise ConfigError("--frames", args.frames, "an integer >= 1")
     overrides = list(args.set or [])
     if args.seed is not None:
         overrides.append(f"scene.seed={args.seed}")
@@ -66,7 +79,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                       progress=not args.no_progress, until_settled=not args.all_frames,
                       colors=args.colors, crack_lines=not args.no_crack_lines, export=exports,
                       draw_process=not args.draw_here)
-    start = start_run(cfg, opts)  # the output folder, and the drawing process starting beside the build
+    start = start_run(cfg, opts, drawing)  # the output folder; the drawing process starts its renderer
     try:
         sim = af.Simulation(cfg, warm_events=False)  # the Python API (docs/api.md); event kernels: sim/warm_up.py
     except BaseException:

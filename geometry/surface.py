@@ -17,8 +17,8 @@ that is not (rim of a crack, or an earlier child), an edge on one side is split 
 the other (a T-junction); such edges are found (directed edges without a reverse) and the face
 with the long edge is split at the hanging vertex, so every edge is used in both directions.
 The enclosed volume (divergence theorem) then equals the fragment's tet volume.
-scipy is imported inside the functions that use it: importing it takes 0.45 s, and neither a run's
-first frame nor the drawing process needs it.
+scipy is imported only where a surface needs it (extra-link groups, T-junctions): importing it takes
+0.45 s, and the surfaces of intact bodies, a drawn run's first frame, need none.
 """
 
 from __future__ import annotations
@@ -67,9 +67,6 @@ def import_libraries() -> None:
 
 def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     """(K,) int: face ids (particle * 4 + face) in balanced extra-link groups."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     ex = ps.extra_links
     if len(ex) == 0:
         return np.zeros(0, np.int64)
@@ -77,6 +74,9 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     if len(ex) == 0:
         return np.zeros(0, np.int64)
     fa, fb, found = coplanar_face_pairs(ps.rest_verts[ex[:, 0]], ps.rest_verts[ex[:, 1]])
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     na = ex[found, 0] * 4 + fa[found]
     nb = ex[found, 1] * 4 + fb[found]
     nodes, inv = np.unique(np.concatenate([na, nb]), return_inverse=True)
@@ -99,8 +99,6 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
 def _split_t_junctions(verts, faces, vert_label, face_data, max_rounds: int = 64):
     """Split faces at vertices hanging on their edges (both halves keep their face's `face_data`);
     returns (faces, face_data, open directed edges)."""
-    from scipy.spatial import cKDTree
-
     nv = len(verts)
     for _ in range(max_rounds):
         e = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)  # (F, 3, 2): directed edges per face
@@ -118,6 +116,8 @@ def _split_t_junctions(verts, faces, vert_label, face_data, max_rounds: int = 64
         u = e[fi, ei, 0]
         v = e[fi, ei, 1]
         cand = np.unique(np.concatenate([u, v]))
+        from scipy.spatial import cKDTree
+
         tree = cKDTree(verts[cand])
         a, b = verts[u], verts[v]
         length = np.linalg.norm(b - a, axis=1)

@@ -2,15 +2,18 @@
 both cores, where it pays; DESIGN.md section 7).
 
 A drawn frame of the pot took about 20 ms of simulation and 48 ms of drawing and writing, one after
-the other on one core. `main.py run` now starts a drawing process first thing (its imports, Taichi
-and renderer start while the World builds) and feeds it: the simulation process keeps what needs the
+the other on one core. `main.py run` starts a drawing process first thing, before its own imports
+(`DrawingProcess()`: the process imports Taichi meanwhile), says what to draw once Taichi runs
+(`start`), and feeds it: the simulation process keeps what needs the
 World (`SceneView`: which bodies a fracture changed and their particles, taken from the store; the
 poses and debris read from the stores), and sends it, and each call it would make on a `RenderScene`,
 as a message (`SceneFeed`); the drawing process keeps the bodies' surface blocks (their surfaces,
 colours and crack lines, render/surface_blocks.py), the `RenderScene`, the renderer, the following
-camera and the PNG and video writers. While the World builds it imports what the first surfaces need
-(scipy's sparse graphs and k-d tree, 0.3-0.6 s); it renders the scene once as soon as it has one, so
-that the renderer's kernels compile while the simulation takes its first step. Messages are written
+camera and the PNG and video writers. While the World builds it compiles its renderer for the
+buffer sizes the scene asked for last time (render/prewarm.py); it renders the scene once as soon as
+it has one, so that what is left to compile does while the simulation takes its first step. The
+first frame's surfaces (intact bodies) import nothing; what the first fracture's surfaces import
+(scipy's sparse graphs and k-d tree, 0.3-0.6 s) it imports the first time it has nothing to draw. Messages are written
 on a thread of the simulation process (`_Sender`), so the simulation never waits on a drawing process
 that is busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's
 start while the drawing process built its scene.
@@ -49,6 +52,14 @@ END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before 
 FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
 ANSWER_WAIT_S = 600.0  # s: the longest wait for an answer (a first frame compiles the renderer, cold: ~1 min)
 COMMAND = [sys.executable, "-m", "render.draw_process"]  # the drawing process, given its socket's fd
+
+
+def draws_apart(renderer: str, draw_process: bool) -> bool:
+    """Whether a run's frames are drawn on a drawing process: there are frames to draw, two cores to
+    share, and `--draw-here` was not given (draw_process)."""
+    from core.host_threads import host_cores
+
+    return renderer != "none" and draw_process and host_cores() >= 2
 
 
 class DrawingProcessError(BackendError):
@@ -122,19 +133,13 @@ class _Sender:
 class DrawingProcess:
     """The simulation's end of a drawing process (module doc)."""
 
-    def __init__(self, kind: str, width: int, height: int, out: Path, video: str, fps: float, stem: str) -> None:
-        import taichi as ti
-
-        from core.runtime import runtime
-
-        rt = runtime()
+    def __init__(self) -> None:
+        """Start the process, which imports Taichi while it waits for `start` (main.py starts it first
+        thing, before the simulation's own imports)."""
         mine, theirs = socket.socketpair()
         self._log = tempfile.TemporaryFile()  # what the drawing process prints (kept for an error)
-        env = dict(os.environ, TI_OFFLINE_CACHE_FILE_PATH=str(
-            Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR))
-        self._proc = subprocess.Popen([*COMMAND, str(theirs.fileno())],
-                                      pass_fds=[theirs.fileno()], cwd=ROOT, env=env, stdin=subprocess.DEVNULL,
-                                      stdout=self._log, stderr=subprocess.STDOUT)
+        self._proc = subprocess.Popen([*COMMAND, str(theirs.fileno())], pass_fds=[theirs.fileno()], cwd=ROOT,
+                                      stdin=subprocess.DEVNULL, stdout=self._log, stderr=subprocess.STDOUT)
         theirs.close()
         self._conn = Connection(mine.detach())
         self._sender = _Sender(self._conn)
@@ -143,9 +148,21 @@ class DrawingProcess:
         self.sent = self.drawn = 0  # frames asked for, frames written
         self.idle_work = None  # () -> bool: one piece of work to do while waiting for a frame (False: none left)
         self.failed = False  # its error was raised already
+
+    def start(self, kind: str, width: int, height: int, out: Path, video: str, fps: float, stem: str,
+              scene_key: str = "") -> None:
+        """What to draw, once this process has started Taichi: renderer, image size, writers, and the
+        key under which the drawing process remembers the scene's buffer sizes (render/prewarm.py)."""
+        import taichi as ti
+
+        from core.runtime import runtime
+
+        rt = runtime()
+        cache = Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR
         ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
         self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
-                                height=height, out=str(out), video=video, fps=fps, stem=stem,
+                                height=height, out=str(out), video=video, fps=fps, stem=stem, cache=str(cache),
+                                scene_key=scene_key,
                                 vulkan=ggui.known_vulkan_status() if ggui is not None else None))
 
     def send(self, what: str, data=None) -> None:
@@ -255,6 +272,7 @@ class _Drawer:
         from core.runtime import init_taichi
         from render.select import make_renderer
 
+        os.environ["TI_OFFLINE_CACHE_FILE_PATH"] = start["cache"]  # its own (module doc), read by ti.init
         init_taichi(start["arch"], start["precision"], start["threads"])
         if start["vulkan"] is not None:
             from render.ggui import assume_vulkan_status
@@ -269,10 +287,12 @@ class _Drawer:
 
     def handle(self, what: str, data) -> str | None:
         """One message; returns "drawn" once a frame is written."""
+        from render.prewarm import remember
         from render.scene_data import RenderScene
         from render.surface_blocks import SurfaceBlocks
 
         if what == "scene":
+            remember(Path(self.start["cache"]), self.start["scene_key"], data)
             self.scene = RenderScene(**data)
         elif what == "blocks":
             self.blocks = SurfaceBlocks(**data)
@@ -299,6 +319,14 @@ class _Drawer:
         else:
             raise AssertionError(f"unknown message {what!r}")
 
+    def prewarm(self) -> None:
+        """Compile the renderer for the buffer sizes this scene asked for last time (render/prewarm.py)."""
+        from render.prewarm import prewarm, remembered
+
+        sizes = remembered(Path(self.start["cache"]), self.start["scene_key"])
+        if sizes is not None:
+            prewarm(self.renderer, sizes)
+
     def _open_writers(self) -> None:
         from render.writers import PngSequenceWriter, make_writer
 
@@ -324,7 +352,13 @@ def serve(fd: int) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the simulation's to handle
     conn = Connection(fd)
     drawer = None
+    libraries = False  # the imports of the first fracture's surfaces, made once there is time
     try:
+        if not conn.poll():  # until the simulation has started Taichi and says what to draw
+            from core.taichi_frontend import install_before_import
+
+            install_before_import()
+            import taichi  # noqa: F401
         while True:
             try:
                 what, data = conn.recv()
@@ -333,15 +367,17 @@ def serve(fd: int) -> int:
             if what == "start":
                 drawer = _Drawer(data)
                 conn.send(("started", drawer.renderer.message))
-                if not conn.poll():  # the World is still building: the first surfaces' imports meanwhile
-                    from geometry.surface import import_libraries
-
-                    import_libraries()
+                drawer.prewarm()  # while the World builds
             elif what == "close":
                 conn.send(("closed", drawer.close()))
                 return 0
             elif drawer.handle(what, data) == "drawn":
                 conn.send(("drawn", None))
+                if not libraries and not conn.poll():  # nothing to draw: what the first surfaces will import
+                    from geometry.surface import import_libraries
+
+                    import_libraries()
+                    libraries = True
     except BaseException as exc:  # noqa: BLE001 - every error goes back to the simulation
         try:
             conn.send(("error", _pickled(exc)))

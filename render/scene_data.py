@@ -190,6 +190,34 @@ def _k_copy_poses(n: ti.i32, src_x: ti.template(), src_q: ti.template(), src_com
         pose_q[b] = ti.Vector([1.0, 0.0, 0.0, 0.0])
 
 
+# Host arrays come in through one kernel per kind (all rows of the buffers, as `from_numpy` would
+# write them): a field's `from_numpy` compiles a kernel of Taichi's for every field, six for a first
+# frame (0.2 s of the drawing process's start, render/prewarm.py).
+@ti.kernel
+def _k_put_poses(x: ti.types.ndarray(), q: ti.types.ndarray(), com: ti.types.ndarray(), pose_x: ti.template(),
+                 pose_q: ti.template(), pose_ref_com: ti.template()):
+    for b in range(pose_q.shape[0]):
+        pose_x[b] = ti.Vector([x[b, 0], x[b, 1], x[b, 2]])
+        pose_q[b] = ti.Vector([q[b, 0], q[b, 1], q[b, 2], q[b, 3]])
+        pose_ref_com[b] = ti.Vector([com[b, 0], com[b, 1], com[b, 2]])
+
+
+@ti.kernel
+def _k_put_particles(x: ti.types.ndarray(), r: ti.types.ndarray(), c: ti.types.ndarray(), particle_x: ti.template(),
+                     particle_r: ti.template(), particle_color: ti.template()):
+    for i in range(particle_r.shape[0]):
+        particle_x[i] = ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
+        particle_r[i] = r[i]
+        particle_color[i] = ti.Vector([c[i, 0], c[i, 1], c[i, 2]])
+
+
+@ti.kernel
+def _k_put_lines(x: ti.types.ndarray(), c: ti.types.ndarray(), line_x: ti.template(), line_color: ti.template()):
+    for i in range(line_x.shape[0]):
+        line_x[i] = ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
+        line_color[i] = ti.Vector([c[i, 0], c[i, 1], c[i, 2]])
+
+
 @ti.kernel
 def _k_copy_particles(n: ti.i32, src_x: ti.template(), src_r: ti.template(), particle_x: ti.template(),
                       particle_r: ti.template(), particle_color: ti.template(), color: ti.math.vec3):
@@ -362,9 +390,7 @@ class RenderScene:
         xx[:nb] = x
         cc = np.zeros((cap, 3), fdt)
         cc[:nb] = com
-        self.pose_x.from_numpy(xx)
-        self.pose_q.from_numpy(qq)
-        self.pose_ref_com.from_numpy(cc)
+        _k_put_poses(xx, qq, cc, self.pose_x, self.pose_q, self.pose_ref_com)
         self.n_bodies = nb
 
     def copy_poses_from(self, body_x, body_q, body_ref_com, n: int) -> None:
@@ -390,11 +416,11 @@ class RenderScene:
             raise ConfigError("render.particles", "non-finite position or radius <= 0", "finite x, radius > 0 m")
         self._alloc("part", n)
         cap, fdt = self.cap["part"], numpy_float()
-        for fld, a, shape in ((self.particle_x, x, (cap, 3)), (self.particle_r, r, (cap,)),
-                              (self.particle_color, c, (cap, 3))):
-            buf = np.zeros(shape, fdt)
-            buf[:n] = a
-            fld.from_numpy(buf)
+        bufs = []
+        for a, shape in ((x, (cap, 3)), (r, (cap,)), (c, (cap, 3))):
+            bufs.append(np.zeros(shape, fdt))
+            bufs[-1][:n] = a
+        _k_put_particles(*bufs, self.particle_x, self.particle_r, self.particle_color)
         self.n_particles = n
 
     def copy_particles_from(self, x_field, r_field, n: int, color=(0.9, 0.55, 0.2)) -> None:
@@ -422,8 +448,7 @@ class RenderScene:
         xs[0 : 2 * n : 2], xs[1 : 2 * n : 2] = a, b
         cs = np.zeros((2 * cap, 3), fdt)
         cs[0 : 2 * n : 2], cs[1 : 2 * n : 2] = c, c
-        self.line_x.from_numpy(xs)
-        self.line_color.from_numpy(cs)
+        _k_put_lines(xs, cs, self.line_x, self.line_color)
         self.n_lines = n
 
     # ---- queries ---------------------------------------------------------------------------------

@@ -148,22 +148,36 @@ class RunStart:
             self.out.rmdir()
 
 
-def start_run(cfg: SceneConfig, opts: RunOptions) -> RunStart:
-    """Prepare the output folder and start the drawing process: a second process draws and writes the
-    frames while this one steps the next (render/draw_process.py) where there are frames to draw, two
-    cores to share and `opts.draw_process`."""
-    from core.host_threads import host_cores
-
+def start_run(cfg: SceneConfig, opts: RunOptions, drawing=None) -> RunStart:
+    """Prepare the output folder and start the drawing process where `draws_apart`: a second process
+    draws and writes the frames while this one steps the next. `drawing`: a DrawingProcess started
+    already (main.py starts it first thing), told here what to draw."""
     made = not Path(opts.out).exists()
-    out = prepare_output_dir(opts.out, opts.overwrite)
-    if opts.overwrite:
-        remove_frame_sequences(out)  # a shorter run must not leave an earlier one's frames behind
-    if opts.renderer == "none" or not opts.draw_process or host_cores() < 2:
-        return RunStart(out, made_out=made)
-    from render.draw_process import DrawingProcess
+    try:
+        out = prepare_output_dir(opts.out, opts.overwrite)
+        if opts.overwrite:
+            remove_frame_sequences(out)  # a shorter run must not leave an earlier one's frames behind
+        from render.draw_process import DrawingProcess, draws_apart
 
-    return RunStart(out, DrawingProcess(opts.renderer, opts.width, opts.height, out, opts.video, cfg.scene.fps,
-                                        cfg.scene.name), made)
+        if not draws_apart(opts.renderer, opts.draw_process):
+            if drawing is not None:
+                drawing.abandon()
+            return RunStart(out, made_out=made)
+        drawing = drawing or DrawingProcess()
+        drawing.start(opts.renderer, opts.width, opts.height, out, opts.video, cfg.scene.fps, cfg.scene.name,
+                      scene_key(cfg, opts))
+    except BaseException:
+        if drawing is not None:
+            drawing.abandon()
+        raise
+    return RunStart(out, drawing, made)
+
+
+def scene_key(cfg: SceneConfig, opts: RunOptions) -> str:
+    """What a scene's render buffers depend on, as a short digest (render/prewarm.py)."""
+    import hashlib
+
+    return hashlib.sha256(f"{cfg!r} {opts.renderer} {opts.width}x{opts.height}".encode()).hexdigest()[:32]
 
 
 def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import sys
+import uuid
 
 import pytest
 
@@ -42,7 +43,8 @@ def test_an_error_in_the_drawing_process_reaches_the_caller(tmp_path):
 
 
 def test_a_drawing_process_that_dies_is_named(tmp_path):
-    drawing = DrawingProcess("raster", 32, 24, tmp_path, "none", 30.0, "t")
+    drawing = DrawingProcess()
+    drawing.start("raster", 32, 24, tmp_path, "none", 30.0, "t")
     assert "raster" in drawing.started()
     drawing._proc.kill()
     drawing._proc.wait()
@@ -87,6 +89,8 @@ kernel_impl.Kernel.materialize = spy
 handle = draw_process._Drawer.handle
 
 def handled(self, what, data):
+    if what == "scene":
+        phase[0] = "scene"
     out = handle(self, what, data)
     if out == "drawn":
         phase[0] = "later"
@@ -114,3 +118,24 @@ def test_the_drawing_process_compiles_nothing_after_its_first_frame(tmp_path, mo
     assert any(phase == "start" for phase, _ in compiled)  # the spy sees compiles
     late = [name for phase, name in compiled if phase == "later"]
     assert late == [], late
+
+
+def test_a_scene_drawn_before_compiles_its_first_frame_while_the_world_builds(tmp_path, monkeypatch):
+    """render/prewarm.py: the first run of a scene remembers its buffer sizes, and the next run's
+    drawing process compiles its renderer for them before the scene comes: from the scene on, its
+    first frame compiles nothing. The first run, with nothing remembered, compiles there."""
+    import render.draw_process as draw_process
+    import sim.run
+
+    monkeypatch.setattr(draw_process, "COMMAND", [sys.executable, "-c", SPY])
+    key = f"test-{uuid.uuid4().hex}"  # nothing remembered under it yet
+    monkeypatch.setattr(sim.run, "scene_key", lambda cfg, opts: key)
+    at_scene = []
+    for k in range(2):
+        monkeypatch.setenv("SPY_OUT", str(tmp_path / f"compiled{k}.json"))
+        run(load_scene("pot"), RunOptions(out=tmp_path / f"p{k}", frames=2, renderer="raster", video="none",
+                                          width=96, height=72, progress=False))
+        compiled = json.loads((tmp_path / f"compiled{k}.json").read_text())
+        at_scene.append([name for phase, name in compiled if phase == "scene"])
+    assert "_k_cover" in at_scene[0]  # the spy sees the first frame's compiles
+    assert at_scene[1] == [], at_scene[1]
