@@ -3,11 +3,12 @@ only a contact needs; DESIGN.md: only what a scene calls for runs).
 
 Before its first contact a dropped or launched body only falls: the broad and narrow phases find
 nothing and the solver has no contact to solve, yet the full step runs them all, and their kernels
-(1.9 s of frontend and JIT at a warm start, docs/decisions.md) compile at the first frame. A frame
-in which no contact can be made runs `rigid.step(..., free=True)` instead: the free-flight kernels
-of rigid/step_kernels.py, which give the full step's state bit for bit
-(tests/unit/test_rigid_free_flight.py). The contact kernels then compile in the frames of the fall
-(sim/warm_up.py) or before the first frame, as the event kernels do.
+(1.9 s of frontend and JIT at a warm start, docs/decisions.md) compile at the first frame. Until
+they have compiled (as warm-up pieces in the frames of the fall, sim/warm_up.py `free_frame`), a
+frame in which no contact can be made runs `rigid.step(..., free=True)` instead: the free-flight
+kernels of rigid/step_kernels.py, which give the full step's state bit for bit
+(tests/unit/test_rigid_free_flight.py). Where the warm-up runs before the first frame (a contact is
+near, or no drawing process leaves idle time) the full step runs from the start.
 
 A frame is free when `rigid.first_contact` bounds the first contact at least one rigid step beyond
 the frame's end (a speculative contact is made at the start of the step in which a pair can close),

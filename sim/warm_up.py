@@ -33,18 +33,20 @@ SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possibl
 PIECE_FLOOR_S = 0.03
 
 
-def warm_pieces(world) -> list:
-    """The pieces of a World: the full rigid step's kernels, then those of fracture events."""
+def warm_pieces(world) -> tuple[list, int]:
+    """The pieces of a World: the full rigid step's kernels (how many: the second value), then those of
+    fracture events."""
     pieces = []
     if "rigid" in world.stages:
         from rigid.step import warm_pieces as step_pieces
 
         pieces += step_pieces(world.rigid)
+    steps = len(pieces)
     if world.mode is not None:
         from sim.fracture_stage import warm_pieces as event_pieces
 
         pieces += event_pieces(world)
-    return pieces
+    return pieces, steps
 
 
 class WarmUp:
@@ -52,7 +54,8 @@ class WarmUp:
 
     def __init__(self, world) -> None:
         self.world = world
-        self.pieces = deque(warm_pieces(world))
+        pieces, self.step_pieces = warm_pieces(world)
+        self.pieces = deque(pieces)
         self.idle = False  # True where a drawing process gives the simulation idle time (run_one)
         self.clock = time.perf_counter  # s: what the pieces' times are read from
         self.spent = 0.0  # s: the pieces run so far, in all
@@ -89,6 +92,14 @@ class WarmUp:
                 w.build_seconds += time.perf_counter() - t0
         elif w.frame > 0 and frames <= n:  # the idle time did not do them all: the rest in the frames left
             self.run_share(frames)
+
+    def free_frame(self, step_s: float) -> bool:
+        """Whether this frame steps the bodies alone (rigid/free_flight.py): while the full step's
+        kernels have not compiled, and no contact can be made in it. Once they have (before the first
+        frame, where a contact is near or no drawing process leaves idle time), the full step runs: it
+        gives the same state, and the free step's own kernels would only add to the start."""
+        w = self.world
+        return self.ran < self.step_pieces and w.rigid.free_flight.frame_is_free(w.dt_frame, step_s)
 
     def run_share(self, frames: int) -> None:
         """This frame's share of the pieces left, `frames` frames (this one included) before they

@@ -321,7 +321,7 @@ class World:
         substep = [st for st in self.plan if st.phase == SUBSTEP]
         if substep:
             dt = self.dt_frame / sc.substeps
-            free = "rigid" in self.stages and self.rigid.free_flight.frame_is_free(self.dt_frame, dt)
+            free = self.warm_up is not None and self.warm_up.free_frame(dt)  # rigid/free_flight.py
             track = "fracture.events" in self.stages and not free
             for k in range(sc.substeps):
                 # a fast body splits the substep (rigid.step.travel_splits): impacts are read from every part
