@@ -17,8 +17,8 @@ that is not (rim of a crack, or an earlier child), an edge on one side is split 
 the other (a T-junction); such edges are found (directed edges without a reverse) and the face
 with the long edge is split at the hanging vertex, so every edge is used in both directions.
 The enclosed volume (divergence theorem) then equals the fragment's tet volume.
-scipy is imported only where a surface needs it (extra-link groups, T-junctions): importing it takes
-0.45 s, and the surfaces of intact bodies, a drawn run's first frame, need none.
+The searches (extra-link groups, T-junctions, faces on the rest surface) use geometry/grid_search.py,
+not scipy: the drawing process makes these surfaces too, and importing scipy there took 0.45 s.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.grid_search import PointGrid, components, pairs_within
 from geometry.particles import ParticleSet
 from geometry.subdivision import coplanar_face_pairs, face_points
 from geometry.tetmesh import TET_FACES
@@ -53,18 +54,6 @@ class SurfaceMesh:
         return self.verts[used], inv.reshape(-1, 3)
 
 
-SURFACE_LIBRARIES = ("scipy.sparse", "scipy.sparse.csgraph", "scipy.spatial")  # fragment_surfaces' imports
-
-
-def import_libraries() -> None:
-    """Import what the first `fragment_surfaces` would (0.3-0.6 s on the 2-core machine): the
-    drawing process does it while it waits for the World (render/draw_process.py)."""
-    import importlib
-
-    for name in SURFACE_LIBRARIES:
-        importlib.import_module(name)
-
-
 def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     """(K,) int: face ids (particle * 4 + face) in balanced extra-link groups."""
     ex = ps.extra_links
@@ -74,16 +63,12 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     if len(ex) == 0:
         return np.zeros(0, np.int64)
     fa, fb, found = coplanar_face_pairs(ps.rest_verts[ex[:, 0]], ps.rest_verts[ex[:, 1]])
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     na = ex[found, 0] * 4 + fa[found]
     nb = ex[found, 1] * 4 + fb[found]
     nodes, inv = np.unique(np.concatenate([na, nb]), return_inverse=True)
     inv = inv.ravel()
     m = len(na)
-    g = coo_matrix((np.ones(m, np.int8), (inv[:m], inv[m:])), shape=(len(nodes), len(nodes)))
-    nc, comp = connected_components(g, directed=False)
+    nc, comp = components(len(nodes), inv[:m], inv[m:])
     tri = ps.rest_verts[nodes // 4][np.arange(len(nodes))[:, None], TET_FACES[nodes % 4]]  # (K, 3, 3)
     varea = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     total = np.bincount(comp, weights=np.linalg.norm(varea, axis=1), minlength=nc)
@@ -116,17 +101,12 @@ def _split_t_junctions(verts, faces, vert_label, face_data, max_rounds: int = 64
         u = e[fi, ei, 0]
         v = e[fi, ei, 1]
         cand = np.unique(np.concatenate([u, v]))
-        from scipy.spatial import cKDTree
-
-        tree = cKDTree(verts[cand])
         a, b = verts[u], verts[v]
         length = np.linalg.norm(b - a, axis=1)
-        hits = tree.query_ball_point(0.5 * (a + b), 0.5 * length * (1.0 + 1e-9) + 1e-300)
-        cnts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if cnts.sum() == 0:
+        row, w = pairs_within(0.5 * (a + b), verts[cand], 0.5 * length * (1.0 + 1e-9) + 1e-300)
+        if len(row) == 0:
             return faces, face_data, int(open_e.sum())
-        row = np.repeat(np.arange(len(u)), cnts)
-        w = cand[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if len(h)])]
+        w = cand[w]
         ab = b[row] - a[row]
         aw = verts[w] - a[row]
         L2 = np.einsum("ij,ij->i", ab, ab)
@@ -232,7 +212,7 @@ class RestSurface:
         self.normal = n / np.maximum(self.area2, 1e-300)[:, None]  # (T, 3) -: unit normals
         corner = np.linalg.norm(self.tris - self.centre[:, None, :], axis=2)
         self.reach = float(corner.max(initial=0.0))  # m: a point on a triangle lies this near its centre
-        self._tree = None  # the search tree over `centre`, made at the first `covers` (scipy: 0.45 s to import)
+        self._grid = None  # geometry.grid_search.PointGrid over `centre`, made at the first `covers`
 
     def covers(self, tris: np.ndarray, tol: float) -> np.ndarray:
         """(F,) bool: which triangles `tris` (F, 3, 3) lie on this surface with the same orientation: the
@@ -244,15 +224,11 @@ class RestSurface:
         qc = tris.mean(1)
         qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
         qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
-        # candidate (query, surface triangle) pairs as arrays, no Python list per query
-        from scipy.spatial import cKDTree
-
-        if self._tree is None:
-            self._tree = cKDTree(self.centre)
-        pairs = cKDTree(qc).sparse_distance_matrix(self._tree, self.reach + tol, output_type="ndarray")
-        if len(pairs) == 0:
+        if self._grid is None or self._grid.cell < self.reach + tol:
+            self._grid = PointGrid(self.centre, self.reach + tol)
+        q, t = self._grid.pairs(qc, self.reach + tol)  # candidate (query, surface triangle) pairs
+        if len(q) == 0:
             return out
-        q, t = pairs["i"].astype(np.int64), pairs["j"].astype(np.int64)
         a, b, c = self.tris[t, 0], self.tris[t, 1], self.tris[t, 2]
         n = self.normal[t]
         p = qc[q]

@@ -12,8 +12,7 @@ colours and crack lines, render/surface_blocks.py), the `RenderScene`, the rende
 camera and the PNG and video writers. While the World builds it compiles its renderer for the
 buffer sizes the scene asked for last time (render/prewarm.py); it renders the scene once as soon as
 it has one, so that what is left to compile does while the simulation takes its first step. The
-first frame's surfaces (intact bodies) import nothing; what the first fracture's surfaces import
-(scipy's sparse graphs and k-d tree, 0.3-0.6 s) it imports the first time it has nothing to draw. Messages are written
+fragments' surfaces it makes import no scipy (geometry/grid_search.py). Messages are written
 on a thread of the simulation process (`_Sender`), so the simulation never waits on a drawing process
 that is busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's
 start while the drawing process built its scene.
@@ -352,7 +351,6 @@ def serve(fd: int) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the simulation's to handle
     conn = Connection(fd)
     drawer = None
-    libraries = False  # the imports of the first fracture's surfaces, made once there is time
     try:
         if not conn.poll():  # until the simulation has started Taichi and says what to draw
             from core.taichi_frontend import install_before_import
@@ -373,11 +371,6 @@ def serve(fd: int) -> int:
                 return 0
             elif drawer.handle(what, data) == "drawn":
                 conn.send(("drawn", None))
-                if not libraries and not conn.poll():  # nothing to draw: what the first surfaces will import
-                    from geometry.surface import import_libraries
-
-                    import_libraries()
-                    libraries = True
     except BaseException as exc:  # noqa: BLE001 - every error goes back to the simulation
         try:
             conn.send(("error", _pickled(exc)))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -192,10 +193,8 @@ def test_adaptive_split_matches_the_exact_box_split(seed):
 
 _SURFACES_CHILD = """
 import pickle, sys
-from geometry.surface import fragment_surfaces, import_libraries
+from geometry.surface import fragment_surfaces
 ps, labels = pickle.load(open(sys.argv[1], "rb"))
-if sys.argv[2] == "ahead":
-    import_libraries()
 before = set(sys.modules)
 surf = fragment_surfaces(ps, labels)
 assert surf.open_edges == 0
@@ -203,41 +202,27 @@ print(sorted(m for m in set(sys.modules) - before if m.split(".")[0] == "scipy")
 """
 
 
-def test_the_drawing_process_imports_ahead_all_the_surfaces_need(tmp_path):
-    """render/draw_process.py imports `geometry.surface.import_libraries()` while the World builds;
-    a fresh process that did so imports no more of scipy for the surfaces of a cut box (its extra
-    links and hanging vertices take every path)."""
+@pytest.mark.parametrize("cut", [True, False])
+def test_fragment_surfaces_import_no_scipy(tmp_path, cut):
+    """The drawing process makes the fragments' surfaces (render/draw_process.py): a fresh process
+    imports no scipy for them, neither for an intact box (a drawn run's first frame) nor for a cut
+    one, whose extra links and hanging vertices take every path (geometry/grid_search.py)."""
     import pickle
-
-    ps = particles(kuhn_box(4, 4, 4, jitter=0.1, seed=3))
-    out, rep = apply_cracks(ps, [Crack(point=[0.5, 0.5, 0.5], normal=[0.05, 0.03, 1.0], r_outer=2.0)],
-                            mode="subdivision")
-    assert len(out.extra_links) > 0  # the path through the extra links' face groups is taken
-    data = tmp_path / "cut.pkl"
-    data.write_bytes(pickle.dumps((out, rep.labels)))
-    assert _surfaces_child_imports(data, "ahead") == "[]"
-
-
-def test_the_surfaces_of_intact_bodies_import_no_scipy(tmp_path):
-    """A drawn run's first frame (intact bodies) needs no scipy: the drawing process imports it later,
-    when it has nothing to draw (render/draw_process.py)."""
-    import pickle
-
-    ps = particles(kuhn_box(4, 4, 4, jitter=0.1, seed=3))
-    data = tmp_path / "intact.pkl"
-    data.write_bytes(pickle.dumps((ps, np.zeros(len(ps), np.int64))))
-    assert _surfaces_child_imports(data, "none") == "[]"
-
-
-def _surfaces_child_imports(data, libraries: str) -> str:
-    """scipy modules a fresh process imports for the surfaces pickled in `data` (after importing
-    `import_libraries` ahead where libraries == "ahead")."""
     import subprocess
     import sys
     from pathlib import Path
 
+    ps = particles(kuhn_box(4, 4, 4, jitter=0.1, seed=3))
+    labels = np.zeros(len(ps), np.int64)
+    if cut:
+        ps, rep = apply_cracks(ps, [Crack(point=[0.5, 0.5, 0.5], normal=[0.05, 0.03, 1.0], r_outer=2.0)],
+                               mode="subdivision")
+        labels = rep.labels
+        assert len(ps.extra_links) > 0  # the path through the extra links' face groups is taken
+    data = tmp_path / "surfaces.pkl"
+    data.write_bytes(pickle.dumps((ps, labels)))
     root = Path(__file__).resolve().parents[2]
-    child = subprocess.run([sys.executable, "-c", _SURFACES_CHILD, str(data), libraries], cwd=root,
-                           capture_output=True, text=True, timeout=300)
+    child = subprocess.run([sys.executable, "-c", _SURFACES_CHILD, str(data)], cwd=root, capture_output=True,
+                           text=True, timeout=300)
     assert child.returncode == 0, child.stderr
-    return child.stdout.strip()
+    assert child.stdout.strip() == "[]"
