@@ -209,10 +209,12 @@ class DrawingProcess:
     def draw(self) -> None:
         """Draw and write a frame of the scene as the calls so far left it; waits while the drawing
         process is more than FRAMES_AHEAD frames behind (a frame's wall time then counts its drawing),
-        doing `idle_work` meanwhile where there is some."""
+        doing `idle_work` meanwhile where there is some. The first frame waits until it is written: the
+        drawing process may still be compiling its renderer, and that wait is the start's, not a later
+        frame's (the simulation's first frames are quick now that they step the bodies alone)."""
         self.send("draw")
         self.sent += 1
-        while self.sent - self.drawn > FRAMES_AHEAD:
+        while self.sent - self.drawn > (FRAMES_AHEAD if self.drawn else 0):
             if self.idle_work is not None and not self._conn.poll() and self.idle_work():
                 continue  # did a piece while the drawing process was busy
             self._receive()
