@@ -162,6 +162,8 @@ def warm_pieces(world) -> list:
     its first launch on nothing (no body, sphere or contact). Those launches only reset scratch that
     every step sets again (the grid, the contact count, the support levels, the fastest closing), and
     the warm-start flag is put back. The store and the settings are read when a piece runs."""
+    from functools import partial
+
     from core.compile import precompile
 
     def kernels() -> list:
@@ -188,7 +190,5 @@ def warm_pieces(world) -> list:
         valid = int(world._s.pc_valid[None])
         kernel(*args)
         world._s.pc_valid[None] = valid
-
-    from functools import partial
 
     return [piece for k in range(len(kernels())) for piece in (partial(frontend, k), partial(launch, k))]
