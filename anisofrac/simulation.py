@@ -76,8 +76,9 @@ class Simulation:
     `with anisofrac.load("pot") as sim: ...` frees its Taichi fields at the end (or call `close()`)."""
 
     def __init__(self, config, seed: int | None = None, warm_events: bool = True) -> None:
-        """warm_events=False: the kernels only fracture events launch compile at the first step instead
-        of here (sim/warm_up.py; `main.py run` has them compile while it waits for drawn frames)."""
+        """warm_events=False: the kernels only contacts and fracture events launch compile at the first
+        frame instead of here (sim/warm_up.py; `main.py run` has them compile while it waits for drawn
+        frames)."""
         from core.runtime import ensure_runtime
         from sim.world import World
 
