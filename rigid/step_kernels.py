@@ -94,7 +94,7 @@ def k_free_substep(s: ti.template(), nb: ti.i32, h: float, gx: float, gy: float,
 def k_free_end(s: ti.template(), nb: ti.i32, dt: float, sleep_lin: float, sleep_ang: float, time_to_sleep: float,
                sleeping: ti.template()):
     """Stages 9 and 11 without contacts: sleep timers, then each body an island of its own; the
-    warm-start store is emptied (the full step would save no contact)."""
+    warm-start store is marked as holding nothing (the full step would save no contact)."""
     for b in range(nb):
         if is_active(s, b):
             solver.count_slow_time(s, b, dt, sleep_lin, sleep_ang)
