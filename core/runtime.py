@@ -123,8 +123,10 @@ def init_taichi(
 
     from core.taichi_frontend import install as fast_frontend
     from core.taichi_frontend import install_serial_loops as serial_loops
+    from core.taichi_launch import install as short_launch
 
     fast_frontend()  # Taichi's AST transformer: memoised excerpts, matrix operations built directly (same IR)
+    short_launch()  # a kernel's later calls skip Taichi's per-argument lookup (core/taichi_launch.py)
     kwargs: dict = dict(
         default_fp=ti.f64 if precision == "f64" else ti.f32,
         default_ip=ti.i32,
