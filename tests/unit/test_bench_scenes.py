@@ -35,6 +35,8 @@ def test_summary_figures_are_the_runs_own():
     assert (r["events"], r["stress_ms"], r["subdivision_ms"], r["crack_ms"]) == (2, 6.0, 10.0, 17.0)
     assert (r["event_ms"], r["first_event_ms"]) == (39.5, 70.0)
     assert r["fps_drawn"] == pytest.approx(1e3 * 18 / (8 * 50.0 + 10 * 100.0))
+    assert r["fps_window"] == pytest.approx(1e3 * 19 / (9 * 50.0 + 10 * 100.0))  # a run shorter than 62 frames
+    assert bs.window_fps([900.0] + [50.0] * 61 + [1000.0] * 5) == pytest.approx(20.0)  # frames 1-61 only
     assert r["fps_bare"] == pytest.approx(100.0)
     assert r["fps_average"] == pytest.approx(20 / 2.35)
     assert r["longest_ms"] == 100.0  # after the first frame
@@ -50,7 +52,7 @@ def test_summary_figures_are_the_runs_own():
     median = bs.summarise("pot", stats(frame_ms, ev), stats([10.0] * 20, []), later)["first_frame_s"]
     assert median == pytest.approx(2.5)  # of 1.9, 3.5 and 2.5 s
     row = bs.table([r]).splitlines()[2]
-    assert row.startswith("| pot | 20 | 2 | 6.0 (86) | 10.0 (2,869) | 17.0 (1,505) | 39.5 (70) |")
+    assert row.startswith("| pot | 20 | 2 | 6.0 (86) | 10.0 (2,869) | 17.0 (1,505) | 39.5 (70) | 12.9 | 13.1 |")
     assert bs.counts_table([r]).splitlines()[2] == "| pot | 7 (4 / 1 / 2) | 14 | 0.50x | yes |"
 
 
