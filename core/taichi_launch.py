@@ -4,8 +4,9 @@ Every call of a Taichi kernel runs, in Python, Taichi's template lookup (`extrac
 then the instance's key) and its argument setter (`recursive_set_args`: a chain of `isinstance` tests per
 argument) before the C++ launch. On this 2-core machine that is 18 us for a kernel without arguments,
 about 5 us more per scalar and 30 us per numpy array: the rigid substep kernel (a store and 12 scalars)
-cost 122 us a call with nothing to do, the particle store's gather (29 arrays) 711 us. A falling pot's
-frame launches some 50 kernels, so that was about a third of its 14 ms; Pots' first 61 frames launch 7k.
+cost 122 us a call with nothing to do, the particle store's gather (29 arrays) 711 us. A quiet frame of
+the pot launches about 70 kernels (four steps of 15, eight of them substeps), so that was about a third of
+its 14 ms (not drawn); Pots' first 61 frames launch 7k.
 
 `install()` gives `Kernel.__call__` a path that remembers, per kernel and per *argument signature*, the
 compiled instance Taichi's own lookup chose the first time, and then sets the arguments straight on the
@@ -18,8 +19,9 @@ Whatever this path does not cover takes Taichi's own path, which also compiles a
 with a signature, keyword arguments, autodiff, a kernel with `print`, argument kinds other than scalars,
 ndarrays and templates (matrices, structs, argument packs, textures), a template that is a tuple, list,
 SNode or expression, a scalar of another Python type than Taichi accepts, a numpy array that is not
-C-contiguous or has more than 2^31 elements, torch or paddle tensors, and a new Taichi program (after
-`ti.reset`). Errors therefore read as Taichi's.
+C-contiguous or has more than 2^31 elements, torch or paddle tensors, an instance Taichi forgot (it
+forgets them all when a field tree is destroyed) and a new Taichi program (after `ti.reset`). Errors
+therefore read as Taichi's.
 """
 
 from __future__ import annotations
