@@ -73,6 +73,9 @@ def _run(args: argparse.Namespace, drawing) -> int:
         raise ConfigError("--export", ",".join(exports), f"a scene with the 'rigid' effect ({cfg.scene.name} has "
                           f"{', '.join(cfg.scene.effects)})")
     _init(args)
+    from core.heap import freeze_long_lived
+
+    freeze_long_lived()  # the imports' objects: no collection walks them again (core/heap.py)
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
@@ -85,6 +88,7 @@ def _run(args: argparse.Namespace, drawing) -> int:
     except BaseException:
         start.abandon()
         raise
+    freeze_long_lived()  # and the build's
     with sim:
         stats = sim.run_headless(opts, start)
     t1 = stats["table1"]

@@ -43,6 +43,7 @@ from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 
 from core.errors import BackendError
+from core.heap import freeze_long_lived
 
 ROOT = Path(__file__).resolve().parents[1]
 CACHE_SUBDIR = "drawing"  # the drawing process's offline cache, inside the simulation's
@@ -368,6 +369,7 @@ def serve(fd: int) -> int:
                 drawer = _Drawer(data)
                 conn.send(("started", drawer.renderer.message))
                 drawer.prewarm()  # while the World builds
+                freeze_long_lived()  # its imports and renderer: no collection walks them again (core/heap.py)
             elif what == "close":
                 conn.send(("closed", drawer.close()))
                 return 0

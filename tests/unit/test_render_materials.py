@@ -96,6 +96,21 @@ def test_crack_faces_are_the_faces_on_the_cut(split_world):
     assert on_cut.any() and np.array_equal(~outer, on_cut)
 
 
+def test_one_search_for_every_changed_body_answers_as_one_search_per_body(split_world):
+    """SurfaceBlocks classifies the faces of all the bodies an event changed in one search of the rest
+    surface: each body's faces get the answer a search for that body alone gives."""
+    world, view = split_world
+    blocks = view.blocks
+    bodies = list(blocks._surfaces.body_ids())
+    assert len(bodies) == 2
+    for b in bodies:
+        _, verts, faces, fid = blocks._surfaces.body_mesh(b)
+        alone = blocks._rest.covers(verts[faces], blocks._tol)
+        assert np.all(blocks._outer[fid] >= 0)  # classified by the event's one search
+        assert np.array_equal(blocks._outer[fid] == 1, alone)
+        assert alone.any() and not alone.all()  # each half has outer and crack faces
+
+
 @pytest.mark.parametrize("scene", ["pot", "taichi"])
 def test_the_rest_surface_faces_are_outer_without_the_search(scene, taichi_runtime):
     """SurfaceBlocks marks the rest surface's own faces outer from their ids, without the search (Pots'

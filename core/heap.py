@@ -1,0 +1,31 @@
+"""Python's cycle collector kept off a run's frames (issue 16: no frame over 100 ms, start under 3 s).
+
+CPython's collector traverses every tracked object of a generation when it collects it. A run's
+process holds about 80k of them after its imports and build (modules, functions, Taichi's Python
+objects, the scene), nearly all alive until it ends, and the oldest generation's collection walked
+them all: 36-83 ms a pass on this machine, three passes a run of the pot, glass_r5 or the Tai Chi
+disc, two of them in the middle of a frame (measured with `gc.callbacks`, session 38; glass_r5's
+frame 57 took 76 ms more in its debris stage for one).
+
+`freeze_long_lived()` moves every object alive at the call into the permanent generation
+(`gc.freeze`, Python 3.7+), which no collection traverses: later passes walk only what was made
+since. Reference counting still frees frozen objects; only a reference cycle among them would never
+be collected, and what is alive after the imports and the build is the run's for its whole life.
+It is a decision about a whole process, so only processes the project owns call it: `main.py`
+(after its imports and after the World's build) and the drawing process (after it made its
+renderer). A World built through the Python API (a notebook) leaves the collector as it was.
+"""
+
+from __future__ import annotations
+
+import gc
+
+
+def freeze_long_lived() -> int:
+    """Exclude every object alive now from later collections (module doc); returns how many objects
+    the permanent generation holds."""
+    gc.freeze()
+    return gc.get_freeze_count()
+
+
+__all__ = ["freeze_long_lived"]
