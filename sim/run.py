@@ -174,10 +174,13 @@ def start_run(cfg: SceneConfig, opts: RunOptions, drawing=None) -> RunStart:
 
 
 def scene_key(cfg: SceneConfig, opts: RunOptions) -> str:
-    """What a scene's render buffers depend on, as a short digest (render/prewarm.py)."""
+    """What a scene's render buffers depend on, as a short digest (render/prewarm.py): the scene's
+    content, not where its file lies (a clone elsewhere finds the sizes its scene asked for)."""
+    import dataclasses
     import hashlib
 
-    return hashlib.sha256(f"{cfg!r} {opts.renderer} {opts.width}x{opts.height}".encode()).hexdigest()[:32]
+    content = dataclasses.replace(cfg, source="")
+    return hashlib.sha256(f"{content!r} {opts.renderer} {opts.width}x{opts.height}".encode()).hexdigest()[:32]
 
 
 def _world_and_frames(cfg: SceneConfig, opts: RunOptions, world, start: RunStart):

@@ -44,3 +44,21 @@ def test_an_unwritable_folder_loses_only_the_hint(tmp_path):
     blocked.write_text("")
     prewarm.remember(blocked / "sub", "a", SIZES)  # a folder that cannot be made
     assert prewarm.remembered(blocked / "sub", "a") is None
+
+
+def test_the_key_is_the_scenes_content_not_its_files_place(tmp_path):
+    """sim.run.scene_key: the same scene file copied elsewhere (a clone, a worktree) keys the same
+    remembered sizes; another scene content, size or renderer keys others."""
+    import shutil
+    from pathlib import Path
+
+    from scenes.loader import load_scene
+    from sim.run import RunOptions, scene_key
+
+    shutil.copy(Path(__file__).resolve().parents[2] / "scenes" / "pot.toml", tmp_path / "pot.toml")
+    opts = RunOptions(out=tmp_path / "out")
+    here, there = load_scene("pot"), load_scene(str(tmp_path / "pot.toml"))
+    assert here.source != there.source
+    assert scene_key(here, opts) == scene_key(there, opts)
+    assert scene_key(here, opts) != scene_key(load_scene("pot", ["objects.pot.position=[0,0.2,0]"]), opts)
+    assert scene_key(here, opts) != scene_key(here, RunOptions(out=tmp_path / "out", width=320, height=240))
