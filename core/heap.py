@@ -9,8 +9,11 @@ frame 57 took 76 ms more in its debris stage for one).
 
 `freeze_long_lived()` moves every object alive at the call into the permanent generation
 (`gc.freeze`, Python 3.7+), which no collection traverses: later passes walk only what was made
-since. Reference counting still frees frozen objects; only a reference cycle among them would never
-be collected, and what is alive after the imports and the build is the run's for its whole life.
+since. Reference counting still frees frozen objects; only a reference cycle among them is not
+collected while the process runs, and what is alive after the imports and the build is the run's
+for its whole life. At exit they are unfrozen (`atexit`), so that the interpreter's last collection
+finalises them as before: Taichi writes its offline cache when its program object is finalised
+there, and a frozen one never was (every run compiled again what the last one compiled).
 It is a decision about a whole process, so only processes the project owns call it: `main.py`
 (after its imports and after the World's build) and the drawing process (after it made its
 renderer). A World built through the Python API (a notebook) leaves the collector as it was.
@@ -18,12 +21,18 @@ renderer). A World built through the Python API (a notebook) leaves the collecto
 
 from __future__ import annotations
 
+import atexit
 import gc
+
+_unfreeze_at_exit = []  # the exit hook, registered once
 
 
 def freeze_long_lived() -> int:
-    """Exclude every object alive now from later collections (module doc); returns how many objects
-    the permanent generation holds."""
+    """Exclude every object alive now from later collections until the process exits (module doc);
+    returns how many objects the permanent generation holds."""
+    if not _unfreeze_at_exit:
+        atexit.register(gc.unfreeze)
+        _unfreeze_at_exit.append(gc.unfreeze)
     gc.freeze()
     return gc.get_freeze_count()
 
