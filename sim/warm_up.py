@@ -13,10 +13,13 @@ in the time the simulation waits for it (`run_one` is its idle work: the pot's f
 first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact gives a lower bound on
 its time; a ball launched at a pane: all before the first frame, as at the build). Those the idle
 time has not run by the time the frames left before a contact are fewer than them run in those
-frames, spread by time: each frame takes its share of what is left (the pieces' mean time so far, at
-least PIECE_FLOOR_S, x the pieces left / the frames left), so that no frame of the fall stalls on
-several heavy pieces at once (the pot's frames 6-7 took 200 ms with three pieces each under a rule of
-so many pieces a frame; 125 ms at most now). Without idle time they all run before the first frame.
+frames, spread by time: each frame takes its share of what is left (the pieces left of each kind, the
+rigid step's and the events', times that kind's mean time so far, at least PIECE_FLOOR_S, over the
+frames left), so that no frame of the fall stalls on several heavy pieces at once (the pot's frames
+6-7 took 200 ms with three pieces each under a rule of so many pieces a frame; with one mean for both
+kinds the rigid step's pieces, 90-330 ms, priced the events' 5-110 ms ones and the pot's first fall
+frames ran two or three heavy pieces each: 300-570 ms, now 235-378 ms, session 38). Without idle
+time they all run before the first frame.
 A fracture event runs any that are left first.
 """
 
@@ -58,7 +61,7 @@ class WarmUp:
         self.pieces = deque(pieces)
         self.idle = False  # True where a drawing process gives the simulation idle time (run_one)
         self.clock = time.perf_counter  # s: what the pieces' times are read from
-        self.spent = 0.0  # s: the pieces run so far, in all
+        self.spent = [0.0, 0.0]  # s: the pieces run so far, the rigid step's and the events'
         self.ran = 0  # how many pieces have run
 
     def run_one(self) -> bool:
@@ -67,9 +70,21 @@ class WarmUp:
             return False
         t0 = self.clock()
         self.pieces.popleft()()
-        self.spent += self.clock() - t0
+        self.spent[self.ran >= self.step_pieces] += self.clock() - t0
         self.ran += 1
         return True
+
+    def _means(self) -> tuple[float, float]:
+        """s: a rigid-step piece's and an event piece's time as the pieces run so far tell it (at least
+        PIECE_FLOOR_S; a kind none of which has run yet counts PIECE_FLOOR_S)."""
+        ran_step = min(self.ran, self.step_pieces)
+        ran_event = self.ran - ran_step
+        return (max(self.spent[0] / ran_step if ran_step else 0.0, PIECE_FLOOR_S),
+                max(self.spent[1] / ran_event if ran_event else 0.0, PIECE_FLOOR_S))
+
+    def _next_mean(self, means: tuple[float, float]) -> float:
+        """s: the time `_means` expects of the next piece, by its kind."""
+        return means[self.ran >= self.step_pieces]
 
     def run_all(self) -> None:
         while self.run_one():
@@ -104,11 +119,13 @@ class WarmUp:
     def run_share(self, frames: int) -> None:
         """This frame's share of the pieces left, `frames` frames (this one included) before they
         must all have run: at least one, then more while the share's time is not used up."""
-        mean = max(self.spent / self.ran if self.ran else 0.0, PIECE_FLOOR_S)  # s: a piece's time
-        share = mean * len(self.pieces) / frames
+        means = self._means()
+        step_left = max(self.step_pieces - self.ran, 0)
+        left = means[0] * step_left + means[1] * (len(self.pieces) - step_left)  # s: what is left, estimated
+        share = left / frames
         t0 = self.clock()
         self.run_one()
-        while self.pieces and self.clock() - t0 + mean <= share:
+        while self.pieces and self.clock() - t0 + self._next_mean(means) <= share:
             self.run_one()
 
     def frames_to_first_contact(self) -> float:

@@ -21,7 +21,7 @@ class _Clock:
         return self.now
 
 
-def _warm_up(durations) -> tuple[WarmUp, _Clock, list]:
+def _warm_up(durations, step_pieces: int = 0) -> tuple[WarmUp, _Clock, list]:
     clock, ran = _Clock(), []
 
     def piece(k: int, d: float):
@@ -32,8 +32,23 @@ def _warm_up(durations) -> tuple[WarmUp, _Clock, list]:
 
     w = WarmUp.__new__(WarmUp)  # no World: only the spreading is under test
     w.pieces = deque(piece(k, d) for k, d in enumerate(durations))
-    w.clock, w.spent, w.ran, w.idle = clock, 0.0, 0, True
+    w.clock, w.spent, w.ran, w.idle, w.step_pieces = clock, [0.0, 0.0], 0, True, step_pieces
     return w, clock, ran
+
+
+def _spread(w: WarmUp, clock: _Clock, frames: int) -> list[float]:
+    """Each frame's work (s) over `frames` frames before a contact, the last running what is left."""
+    work = []
+    for left in range(frames, 0, -1):  # frames before a contact could come, this one included
+        t0 = clock.now
+        if left == 1:
+            w.run_all()  # WarmUp.before_frame: the last frame runs what is left
+        else:
+            n0 = len(w.pieces)
+            w.run_share(left)
+            assert len(w.pieces) < n0  # at least one a frame
+        work.append(clock.now - t0)
+    return work
 
 
 def test_pieces_are_spread_by_time_and_all_run_before_the_contact():
@@ -47,7 +62,7 @@ def test_pieces_are_spread_by_time_and_all_run_before_the_contact():
         if left == 1:
             w.run_all()  # WarmUp.before_frame: the last frame runs what is left
         else:
-            share = max(w.spent / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
+            share = max(w.spent[1] / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
             n0 = len(w.pieces)
             w.run_share(left)
             assert len(w.pieces) < n0  # at least one a frame
@@ -68,3 +83,20 @@ def test_a_share_runs_no_piece_past_it_but_always_one():
     assert ran == [0, 1]
     w.run_share(20)  # a share smaller than one piece: still one
     assert ran == [0, 1, 2]
+
+
+def test_the_rigid_steps_heavy_pieces_do_not_price_the_events_light_ones():
+    """The pot's warm-up: the rigid step's pieces (frontends and first launches, 90-330 ms) come first,
+    then 40-odd event pieces of tens of ms. Each kind's pieces are priced by their own mean: a frame runs
+    one heavy piece, not two or three (one mean for both ran 300-570 ms frames in the pot's fall), and
+    all have run by the last frame."""
+    durations = [0.16] * 6 + [0.04] * 40  # s
+    frames = 17
+    w, clock, ran = _warm_up(durations, step_pieces=6)
+    work = _spread(w, clock, frames)
+    assert ran == list(range(len(durations)))
+    assert max(work[:6]) <= 0.16 + 0.04 + 1e-12  # a heavy piece, and at most one light one with it
+    assert max(work) <= 2.0 * sum(durations) / frames + 0.16
+    # the rule with one mean for both kinds, for comparison: two heavy pieces in a frame
+    w1, clock1, _ = _warm_up(durations, step_pieces=0)
+    assert max(_spread(w1, clock1, frames)[:3]) >= 2 * 0.16
