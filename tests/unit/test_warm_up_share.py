@@ -36,17 +36,20 @@ def _warm_up(durations, step_pieces: int = 0) -> tuple[WarmUp, _Clock, list]:
     return w, clock, ran
 
 
-def _spread(w: WarmUp, clock: _Clock, frames: int) -> list[float]:
-    """Each frame's work (s) over `frames` frames before a contact, the last running what is left."""
+def _spread(w: WarmUp, clock: _Clock, frames: int, bound=None) -> list[float]:
+    """Each frame's work (s) over `frames` frames before a contact, the last running what is left;
+    `bound(left)`, asked before a frame's share runs: the most that frame may take."""
     work = []
     for left in range(frames, 0, -1):  # frames before a contact could come, this one included
         t0 = clock.now
         if left == 1:
             w.run_all()  # WarmUp.before_frame: the last frame runs what is left
         else:
+            most = bound(left) if bound is not None else None
             n0 = len(w.pieces)
             w.run_share(left)
             assert len(w.pieces) < n0  # at least one a frame
+            assert most is None or clock.now - t0 <= most
         work.append(clock.now - t0)
     return work
 
@@ -56,18 +59,12 @@ def test_pieces_are_spread_by_time_and_all_run_before_the_contact():
     durations = rng.choice([0.005, 0.015, 0.03, 0.06, 0.09], size=40)  # s: imports and first launches
     frames = 17
     w, clock, ran = _warm_up(durations)
-    work = []
-    for left in range(frames, 0, -1):  # frames before a contact could come, this one included
-        t0 = clock.now
-        if left == 1:
-            w.run_all()  # WarmUp.before_frame: the last frame runs what is left
-        else:
-            share = max(w.spent[1] / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
-            n0 = len(w.pieces)
-            w.run_share(left)
-            assert len(w.pieces) < n0  # at least one a frame
-            assert clock.now - t0 <= share + durations.max() + 1e-12  # never more than the share and one piece
-        work.append(clock.now - t0)
+
+    def share_and_one_piece(left: int) -> float:  # never more than the share and one piece
+        share = max(w.spent[1] / w.ran if w.ran else 0.0, PIECE_FLOOR_S) * len(w.pieces) / left
+        return share + durations.max() + 1e-12
+
+    work = _spread(w, clock, frames, share_and_one_piece)
     assert ran == list(range(len(durations)))  # all, in order
     assert sum(work) == pytest.approx(durations.sum(), rel=1e-12)
     # the even spread: no frame holds much more than its part of the whole (the count rule, three
