@@ -75,7 +75,8 @@ def _run(args: argparse.Namespace, drawing) -> int:
     _init(args)
     from core.heap import freeze_long_lived
 
-    freeze_long_lived()  # the imports' objects: no collection walks them again (core/heap.py)
+    if args.owns_process:
+        freeze_long_lived()  # the imports' objects: no collection walks them again (core/heap.py)
     out = Path(args.out) if args.out else Path("out") / cfg.scene.name
     opts = RunOptions(out=out, frames=args.frames, renderer=args.renderer, video=args.video, width=args.width,
                       height=args.height, overwrite=args.overwrite, meshes=args.meshes, vtu=args.vtu,
@@ -88,7 +89,8 @@ def _run(args: argparse.Namespace, drawing) -> int:
     except BaseException:
         start.abandon()
         raise
-    freeze_long_lived()  # and the build's
+    if args.owns_process:
+        freeze_long_lived()  # and the build's
     with sim:
         stats = sim.run_headless(opts, start)
     t1 = stats["table1"]
@@ -322,11 +324,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, owns_process: bool = False) -> int:
+    """The command line; `owns_process`: main.py runs as the program, so whole-process settings are its
+    to make (core/heap.py), not those of a caller that imported it (a test, a notebook)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         args = parser.parse_args(["run", DEFAULT_SCENE])
+    args.owns_process = owns_process
     try:
         if hasattr(args, "threads"):
             _check_threads(args)
@@ -342,4 +347,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(owns_process=True))

@@ -14,9 +14,10 @@ collected while the process runs, and what is alive after the imports and the bu
 for its whole life. At exit they are unfrozen (`atexit`), so that the interpreter's last collection
 finalises them as before: Taichi writes its offline cache when its program object is finalised
 there, and a frozen one never was (every run compiled again what the last one compiled).
-It is a decision about a whole process, so only processes the project owns call it: `main.py`
-(after its imports and after the World's build) and the drawing process (after it made its
-renderer). A World built through the Python API (a notebook) leaves the collector as it was.
+It is a decision about a whole process, so only processes the project owns call it: `main.py` run
+as the program (after its imports and after the World's build; `main.main()` called from Python
+does not) and the drawing process (after it made its renderer). A World built through the Python
+API (a notebook) leaves the collector as it was.
 """
 
 from __future__ import annotations
@@ -24,15 +25,16 @@ from __future__ import annotations
 import atexit
 import gc
 
-_unfreeze_at_exit = []  # the exit hook, registered once
+_exit_hook_registered = False  # gc.unfreeze is registered with atexit once
 
 
 def freeze_long_lived() -> int:
     """Exclude every object alive now from later collections until the process exits (module doc);
     returns how many objects the permanent generation holds."""
-    if not _unfreeze_at_exit:
+    global _exit_hook_registered
+    if not _exit_hook_registered:
         atexit.register(gc.unfreeze)
-        _unfreeze_at_exit.append(gc.unfreeze)
+        _exit_hook_registered = True
     gc.freeze()
     return gc.get_freeze_count()
 

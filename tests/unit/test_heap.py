@@ -74,3 +74,18 @@ def test_taichi_writes_its_offline_cache_at_exit_after_a_freeze(tmp_path):
     out = _child(CACHE_CHILD.format(root=str(ROOT), here=str(tmp_path)), TI_OFFLINE_CACHE_FILE_PATH=str(cache))
     assert out[-1] == "42"
     assert any(p.suffix == ".tic" for p in cache.iterdir())
+
+
+def test_main_called_from_python_leaves_the_callers_collector_alone(tmp_path, taichi_runtime):
+    """`main.main()` called from Python (a test, a notebook) does not freeze its caller's objects; only
+    main.py run as the program does (`owns_process`)."""
+    import gc
+
+    import main
+    from core.runtime import runtime
+
+    frozen = gc.get_freeze_count()
+    code = main.main(["run", "tet_cut_22", "--frames", "1", "--renderer", "none", "--video", "none", "--no-progress",
+                      "--precision", runtime().precision, "--out", str(tmp_path / "run")])
+    assert code == 0 and (tmp_path / "run" / "stats.json").exists()
+    assert gc.get_freeze_count() == frozen
