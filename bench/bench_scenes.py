@@ -89,17 +89,20 @@ def _mean(values: list[float]) -> float | None:
     return statistics.fmean(values) if values else None
 
 
+def _rate(frame_ms: list[float]) -> float | None:
+    """Frames per second over these frames (ms each); None without time."""
+    return 1e3 * len(frame_ms) / sum(frame_ms) if frame_ms and sum(frame_ms) > 0 else None
+
+
 def steady_fps(frame_ms: list[float]) -> float | None:
     """Frames per second over the frames after the first STEADY_SKIP of the run."""
-    tail = frame_ms[max(1, int(len(frame_ms) * STEADY_SKIP)):]
-    return 1e3 * len(tail) / sum(tail) if tail and sum(tail) > 0 else None
+    return _rate(frame_ms[max(1, int(len(frame_ms) * STEADY_SKIP)):])
 
 
 def window_fps(frame_ms: list[float], frames: int = WINDOW_FRAMES) -> float | None:
     """Frames per second over frames 1..`frames` (those after the first, which holds the start), events
     included; over every frame after the first in a shorter run."""
-    window = frame_ms[1:frames + 1]
-    return 1e3 * len(window) / sum(window) if window and sum(window) > 0 else None
+    return _rate(frame_ms[1:frames + 1])
 
 
 def quiet_longest_ms(stats: dict) -> float | None:

@@ -30,9 +30,10 @@ import time
 from collections import deque
 
 SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possible contact
-# s: the least a piece is taken to last when a frame's share is reckoned: the first pieces are imports
-# numpy has made already (0-8 ms), and a mean of those alone leaves the heavy ones (scipy's packages,
-# 40-110 ms; first launches, 10-60 ms) piled up for the last frames
+# s: the least a piece is taken to last when a frame's share is reckoned, and the time of each piece of
+# a kind none of which has run yet: the first event pieces are imports numpy has made already (0-8 ms),
+# and a mean of those alone leaves the heavy ones (scipy's packages, 40-110 ms; first launches, 10-60
+# ms) piled up for the last frames
 PIECE_FLOOR_S = 0.03
 
 
