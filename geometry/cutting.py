@@ -322,12 +322,9 @@ def body_mask(ps: ParticleSet, bodies: Bodies) -> np.ndarray:
     return ps.alive & np.isin(ps.body, ids)
 
 
-def crossed_link_mask(
-    ps: ParticleSet, crack: Crack, bodies: Bodies = None, only: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def crossed_link_mask(ps: ParticleSet, crack: Crack, bodies: Bodies = None) -> tuple[np.ndarray, np.ndarray]:
     """(N, 4) bool over face-link slots and (E,) bool over extra links: links the crack removes.
 
-    only: (N,) bool, restrict the test to links with at least one end marked (None = all links).
     Only the particles of `bodies` are looked at, so a cut costs what the struck body holds, not
     what the whole world holds (the Pots scene has 13 pots).
     """
@@ -343,35 +340,67 @@ def crossed_link_mask(
     r, k = np.nonzero((own >= 0) & sel[other] & (side[idx][:, None] != side[other]))
     i = idx[r]
     j = own[r, k]
-    ok = np.ones(len(i), dtype=bool) if only is None else (only[i] | only[j])
     face = np.zeros(links.shape, dtype=bool)
-    if ok.any():
-        ii, kk, jj = i[ok], k[ok], j[ok]
-        face[ii, kk] = segment_crosses(crack, ps.centroid[ii], ps.centroid[jj])
+    face[i, k] = segment_crosses(crack, ps.centroid[i], ps.centroid[j])
     ex = ps.extra_links
     extra = np.zeros(len(ex), dtype=bool)
     if len(ex):
         ok = sel[ex[:, 0]] & sel[ex[:, 1]] & (side[ex[:, 0]] != side[ex[:, 1]])
-        if only is not None:
-            ok &= only[ex[:, 0]] | only[ex[:, 1]]
         extra[ok] = segment_crosses(crack, ps.centroid[ex[ok, 0]], ps.centroid[ex[ok, 1]])
     return face, extra
 
 
-def remove_crossed_links(
-    ps: ParticleSet, crack: Crack, bodies: Bodies = None, only: np.ndarray | None = None
-) -> tuple[ParticleSet, int]:
+def remove_crossed_links(ps: ParticleSet, crack: Crack, bodies: Bodies = None) -> tuple[ParticleSet, int]:
     """Remove every face link and extra link the crack crosses (the rule in the module docstring).
+    Returns a new ParticleSet (the input is not modified) and the number of links removed."""
+    face, extra = crossed_link_mask(ps, crack, bodies)
+    return _without(ps, face, extra)
 
-    only: (N,) bool, test only links with an end marked (used to re-check the links of new
-    children against earlier cracks). Returns a new ParticleSet (the input is not modified) and
-    the number of links removed.
-    """
-    face, extra = crossed_link_mask(ps, crack, bodies, only)
+
+def _without(ps: ParticleSet, face: np.ndarray, extra: np.ndarray) -> tuple[ParticleSet, int]:
+    """`ps` without the face-link slots and extra links marked (both slots of a face link marked)."""
     links = ps.links.copy()
     links[face] = -1
     n_removed = int(face.sum()) // 2 + int(extra.sum())
     return replace(ps, links=links, extra_links=ps.extra_links[~extra].copy()), n_removed
+
+
+def _marked_links(ps: ParticleSet, bodies: Bodies, marked: np.ndarray):
+    """The links of `bodies` with an end marked ((N,) bool): face-link slots (row i, slot k, far end
+    j), both slots of each link, and the rows of such extra links. Face links are symmetric (j's slot
+    back to i is the one whose entry is i), so the marked rows' own slots find every link."""
+    sel = body_mask(ps, bodies)
+    rows = np.flatnonzero(sel & marked)
+    own = ps.links[rows]
+    r, k = np.nonzero((own >= 0) & sel[np.maximum(own, 0)])
+    i, j = rows[r], own[r, k]
+    back = ~marked[j]  # the slot back from an unmarked end (a link between marked rows has both already)
+    k_back = np.argmax(ps.links[j[back]] == i[back][:, None], axis=1)
+    ex = ps.extra_links
+    e = np.zeros(0, np.int64)
+    if len(ex):
+        e = np.flatnonzero(sel[ex[:, 0]] & sel[ex[:, 1]] & (marked[ex[:, 0]] | marked[ex[:, 1]]))
+    return np.r_[i, j[back]], np.r_[k, k_back], np.r_[j, i[back]], e
+
+
+def remove_links_crossing_any(ps: ParticleSet, cracks: list[Crack], bodies: Bodies,
+                              marked: np.ndarray) -> tuple[ParticleSet, int]:
+    """Remove the links with an end marked ((N,) bool: the children a subdivision just made) that any
+    of `cracks` crosses (the earlier cracks, whose cut must stay cut). The links are found once and
+    tested against each crack, with the same side and segment tests as `crossed_link_mask`: the same
+    links go as removing them crack by crack would. Returns a new ParticleSet and how many went."""
+    i, k, j, e = _marked_links(ps, bodies, marked)
+    x, ex = ps.centroid, ps.extra_links
+    face = np.zeros(ps.links.shape, dtype=bool)
+    extra = np.zeros(len(ex), dtype=bool)
+    for crack in cracks:
+        apart = (signed_distance(crack, x[i]) > 0.0) != (signed_distance(crack, x[j]) > 0.0)
+        face[i[apart], k[apart]] |= segment_crosses(crack, x[i[apart]], x[j[apart]])
+        if len(e):
+            a, b = ex[e, 0], ex[e, 1]
+            apart = (signed_distance(crack, x[a]) > 0.0) != (signed_distance(crack, x[b]) > 0.0)
+            extra[e[apart]] |= segment_crosses(crack, x[a[apart]], x[b[apart]])
+    return _without(ps, face, extra)
 
 
 def shatter_radius2(crack: Crack, volume: np.ndarray, grains: bool = False) -> np.ndarray:

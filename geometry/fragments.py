@@ -19,7 +19,14 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from core.errors import ConfigError
-from geometry.cutting import Bodies, Crack, body_mask, remove_crossed_links, shatter_particles
+from geometry.cutting import (
+    Bodies,
+    Crack,
+    body_mask,
+    remove_crossed_links,
+    remove_links_crossing_any,
+    shatter_particles,
+)
 from geometry.particles import ParticleSet
 from geometry.pulverise import pulverise
 from geometry.subdivision import SNAP_REL, SubdivisionReport, subdivide
@@ -131,9 +138,7 @@ def apply_cracks(
                 new = np.zeros(len(ps), dtype=bool)
                 new[srep.first_child :] = True
                 t0 = clock()
-                for old in done:
-                    ps, n = remove_crossed_links(ps, old, bodies=bodies, only=new)
-                    n_removed += n
+                ps, n_removed = remove_links_crossing_any(ps, done, bodies, new)
                 rep.timings["links_s"] += clock() - t0
         t0 = clock()
         ps, n = remove_crossed_links(ps, crack, bodies=bodies)

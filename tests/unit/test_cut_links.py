@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -10,7 +12,9 @@ from hypothesis import strategies as st
 from core.errors import ConfigError
 from geometry.cutting import (
     Crack,
+    crossed_link_mask,
     remove_crossed_links,
+    remove_links_crossing_any,
     section_meets_region,
     segment_crosses,
     shatter_particles,
@@ -288,6 +292,38 @@ def test_links_removed_in_subdivision_mode_are_the_faces_in_the_plane(block):
     removed = after.links[i, k] < 0
     assert removed.any() and np.all(face_d[removed] <= 1e-12)
     assert len(after.extra_links) == len(ps.extra_links)
+
+
+@SETTINGS
+@given(st.integers(0, 10_000))
+def test_links_of_new_children_rechecked_as_crack_by_crack(block, seed):
+    """`remove_links_crossing_any` (the earlier cracks against a subdivision's children, found once)
+    removes exactly what removing each crack's crossed links in turn removes among the links with a
+    marked end, and nothing else."""
+    rng = np.random.default_rng(seed)
+    point, normal = rng.uniform(0.3, 0.7, 3), rng.normal(size=3)
+    ps, rep = subdivide(block, Crack(point=point, normal=normal, r_outer=1.0))
+    # the first earlier crack tilted from the new one through its point: it crosses the children's links
+    cracks = [Crack(point=point, normal=normal + 0.5 * np.linalg.norm(normal) * rng.normal(size=3), r_outer=1.0)]
+    cracks += [Crack(point=rng.uniform(0.2, 0.8, 3), normal=rng.normal(size=3), r_outer=rng.uniform(0.2, 0.8),
+                     side=rng.normal(size=3) if rng.random() < 0.5 else None) for _ in range(2)]
+    marked = np.zeros(len(ps), dtype=bool)
+    marked[rep.first_child:] = True
+    marked[rng.choice(rep.first_child, 5, replace=False)] = True  # and some old rows
+    expected, n_expected = ps, 0
+    for c in cracks:  # crack by crack, each on what the last left, kept to links with a marked end
+        face, extra = crossed_link_mask(expected, c)
+        L, ex = expected.links, expected.extra_links
+        face &= (L >= 0) & (marked[:, None] | marked[np.maximum(L, 0)])
+        extra &= marked[ex[:, 0]] | marked[ex[:, 1]] if len(ex) else extra
+        links = L.copy()
+        links[face] = -1
+        n_expected += int(face.sum()) // 2 + int(extra.sum())
+        expected = replace(expected, links=links, extra_links=ex[~extra])
+    got, n = remove_links_crossing_any(ps, cracks, None, marked)
+    assert np.array_equal(got.links, expected.links) and np.array_equal(got.extra_links, expected.extra_links)
+    assert n == n_expected > 0
+    check_links(got)
 
 
 @st.composite
