@@ -366,40 +366,44 @@ def _without(ps: ParticleSet, face: np.ndarray, extra: np.ndarray) -> tuple[Part
 
 
 def _marked_links(ps: ParticleSet, bodies: Bodies, marked: np.ndarray):
-    """The links of `bodies` with an end marked ((N,) bool): face-link slots (row i, slot k, far end
-    j), both slots of each link, and the rows of such extra links. Face links are symmetric (j's slot
-    back to i is the one whose entry is i), so the marked rows' own slots find every link."""
+    """The links of `bodies` with an end marked ((N,) bool), each once: face links as their two slots
+    (i, k_i) and (j, k_j) (face links are symmetric: j's slot back to i is the one whose entry is i, so
+    the marked rows' own slots find every link), and the rows of such extra links."""
     sel = body_mask(ps, bodies)
     rows = np.flatnonzero(sel & marked)
     own = ps.links[rows]
     r, k = np.nonzero((own >= 0) & sel[np.maximum(own, 0)])
     i, j = rows[r], own[r, k]
-    back = ~marked[j]  # the slot back from an unmarked end (a link between marked rows has both already)
-    k_back = np.argmax(ps.links[j[back]] == i[back][:, None], axis=1)
+    once = ~marked[j] | (i < j)  # a link between marked rows is found from both ends: kept from the lower
+    i, k, j = i[once], k[once], j[once]
+    k_back = np.argmax(ps.links[j] == i[:, None], axis=1)
     ex = ps.extra_links
     e = np.zeros(0, np.int64)
     if len(ex):
         e = np.flatnonzero(sel[ex[:, 0]] & sel[ex[:, 1]] & (marked[ex[:, 0]] | marked[ex[:, 1]]))
-    return np.r_[i, j[back]], np.r_[k, k_back], np.r_[j, i[back]], e
+    return (i, k), (j, k_back), e
 
 
 def remove_links_crossing_any(ps: ParticleSet, cracks: list[Crack], bodies: Bodies,
                               marked: np.ndarray) -> tuple[ParticleSet, int]:
     """Remove the links with an end marked ((N,) bool: the children a subdivision just made) that any
     of `cracks` crosses (the earlier cracks, whose cut must stay cut). The links are found once and
-    tested against each crack, with the same side and segment tests as `crossed_link_mask`: the same
-    links go as removing them crack by crack would. Returns a new ParticleSet and how many went."""
-    i, k, j, e = _marked_links(ps, bodies, marked)
-    x, ex = ps.centroid, ps.extra_links
-    face = np.zeros(ps.links.shape, dtype=bool)
-    extra = np.zeros(len(ex), dtype=bool)
+    tested against each crack, with the same side and segment tests as `crossed_link_mask` (symmetric
+    in the two ends to the bit): the same links go as removing them crack by crack would. Returns a new
+    ParticleSet and how many went."""
+    (i, ki), (j, kj), e = _marked_links(ps, bodies, marked)
+    ex = ps.extra_links
+    ends = [(ps.centroid[i], ps.centroid[j]), (ps.centroid[ex[e, 0]], ps.centroid[ex[e, 1]])]
+    cut = [np.zeros(len(i), dtype=bool), np.zeros(len(e), dtype=bool)]  # face links, extra links
     for crack in cracks:
-        apart = (signed_distance(crack, x[i]) > 0.0) != (signed_distance(crack, x[j]) > 0.0)
-        face[i[apart], k[apart]] |= segment_crosses(crack, x[i[apart]], x[j[apart]])
-        if len(e):
-            a, b = ex[e, 0], ex[e, 1]
-            apart = (signed_distance(crack, x[a]) > 0.0) != (signed_distance(crack, x[b]) > 0.0)
-            extra[e[apart]] |= segment_crosses(crack, x[a[apart]], x[b[apart]])
+        for (a, b), gone in zip(ends, cut):
+            apart = (signed_distance(crack, a) > 0.0) != (signed_distance(crack, b) > 0.0)
+            gone[apart] |= segment_crosses(crack, a[apart], b[apart])
+    face = np.zeros(ps.links.shape, dtype=bool)
+    face[i[cut[0]], ki[cut[0]]] = True
+    face[j[cut[0]], kj[cut[0]]] = True
+    extra = np.zeros(len(ex), dtype=bool)
+    extra[e[cut[1]]] = True
     return _without(ps, face, extra)
 
 
