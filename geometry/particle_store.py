@@ -9,10 +9,12 @@ A fracture event works on the store in place and touches only its body (issue 17
 `take_body` gathers the struck body's particles, and the physical parents its children came from
 (Algorithm 1 analyses them, sim/fracture_stage.py), into a body-sized host `ParticleSet` with local
 indices; the host geometry code (geometry.fragments) cuts that; `put_body` writes back what changed
-and appends the children. Selection, gathering and scattering are kernels, so no whole-store array
-crosses to the host during an event: `transfers` records every copy to or from the host with its
-row count (a test counts an event's). `host()` is the whole store as a read-only `ParticleSet` for
-outputs (statistics, exports, the viewer), downloaded only when the store changed since the last.
+and appends the children. Gathering and scattering are kernels, and which rows a body holds is an
+index kept on the host where the store writes them (geometry/body_rows.py: no pass over the whole
+store), so no whole-store array crosses to the host during an event: `transfers` records every copy
+to or from the host with its row count (a test counts an event's). `host()` is the whole store as a
+read-only `ParticleSet` for outputs (statistics, exports, the viewer), downloaded only when the store
+changed since the last.
 
 Ndarrays rather than fields: a kernel taking ndarrays compiles once for every capacity, so the store
 grows (doubling, copied on the device) without compiling anything, while a field passed as a
@@ -28,7 +30,8 @@ import functools
 import numpy as np
 import taichi as ti
 
-from geometry.particles import KIND_SUBDIVIDED, ParticleSet
+from geometry.body_rows import BodyRows
+from geometry.particles import ParticleSet
 from geometry.store_checks import host_first_invalid, k_first_invalid
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
@@ -43,24 +46,6 @@ Ref = ti.template()  # an ndarray handed on to a ti.func
 
 
 # ----------------------------------------------------------------------------------------- kernels
-@ti.kernel
-def _k_select_bodies(n: ti.i32, want: Arr, particle_alive: Arr, particle_body: Arr, particle_kind: Arr,
-                     particle_parent: Arr, particle_slot: Arr, select_ids: Arr, counter: Arr) -> ti.i32:
-    """Rows of the alive particles of the bodies flagged in `want` and of the parents of their
-    children, unordered; returns how many. Marks them in particle_slot (`_k_gather_extra` clears them)."""
-    for i in range(n):
-        b = particle_body[i]
-        if particle_alive[i] != 0 and 0 <= b < want.shape[0] and want[b] != 0:
-            particle_slot[i] = 1
-            if particle_kind[i] == KIND_SUBDIVIDED:
-                particle_slot[particle_parent[i]] = 1  # a dead parent: never marked by the test above
-    counter[0] = 0
-    for i in range(n):
-        if particle_slot[i] != 0:
-            select_ids[ti.atomic_add(counter[0], 1)] = i
-    return counter[0]
-
-
 @ti.kernel
 def _k_copy_rows_i32(k: ti.i32, src: Arr, dst: Arr):
     for j in range(k):
@@ -233,6 +218,7 @@ class ParticleStore:
         self.count = 0  # rows in use (particles ever made)
         self.extra_count = 0  # rows of link_extra in use, dead ones included until compacted
         self._host = None  # (version, ParticleSet, kernel tensors) of the last download
+        self._body_rows = BodyRows()  # the rows take_bodies gathers per body (geometry/body_rows.py)
         self._allocate(max(MIN_CAPACITY, int(capacity), HEADROOM * len(particles)),
                        max(MIN_CAPACITY, len(particles), 4 * len(particles.extra_links)))
         self.reset(particles, kernel_G)
@@ -244,7 +230,6 @@ class ParticleStore:
         for name, (shape, dtype, _) in {**_FIXED, **_CHANGING}.items():
             setattr(self, name, ti.ndarray(dtype, (self.capacity, *shape)))
         self.particle_slot = ti.ndarray(ti.i32, (self.capacity,))  # (C,) -: local index + 1 in the event, else 0
-        self.select_ids = ti.ndarray(ti.i32, (self.capacity,))  # (C,) -: scratch of a selection
         self.link_extra = ti.ndarray(ti.i32, (self.extra_capacity, 2))  # (CE, 2) -: particles of an extra link
         self.link_extra_alive = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) flag: 0 once removed
         self.select_rows = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) -: scratch of a selection
@@ -279,6 +264,7 @@ class ParticleStore:
         host = _host_columns(particles, kernel_G)
         ids = np.arange(n, dtype=np.int32)
         self._put_rows(ids, host, made=True)
+        self._body_rows.reset(particles.body, particles.alive, particles.kind, particles.parent)
         self.count = n
         self._append_extra(particles.extra_links)
         self._changed(np.unique(particles.body[particles.body >= 0]))
@@ -290,7 +276,7 @@ class ParticleStore:
         self._keep_host(_particle_set(cols, particles.extra_links.copy()), cols["particle_kernel"])
 
     def release(self) -> None:
-        for name in (*_FIXED, *_CHANGING, "particle_slot", "select_ids", "link_extra", "link_extra_alive",
+        for name in (*_FIXED, *_CHANGING, "particle_slot", "link_extra", "link_extra_alive",
                      "select_rows", "counter"):
             setattr(self, name, None)  # the last host() copy stays readable
 
@@ -311,16 +297,9 @@ class ParticleStore:
         return ids.astype(np.int64), ps, cols["particle_kernel"], rows
 
     def _select(self, bodies) -> np.ndarray:
-        """take_bodies, step 1: the store ids (K,) int32, ascending, and their rows marked."""
-        bodies = np.asarray(list(bodies), dtype=np.int64).reshape(-1)
-        want = np.zeros(int(bodies.max(initial=-1)) + 1 or 1, dtype=np.int32)  # (B,) flag per body id
-        want[bodies[bodies >= 0]] = 1
-        k = _k_select_bodies(self.count, want, self.particle_alive, self.particle_body, self.particle_kind,
-                             self.particle_parent, self.particle_slot, self.select_ids, self.counter)
-        ids = np.empty(k, dtype=np.int32)
-        _k_copy_rows_i32(k, self.select_ids, ids)
-        ids.sort()  # the order of the whole-world arrays: the host code's results do not change
-        return ids
+        """take_bodies, step 1: the store ids (K,) int32, ascending (the order of the whole-world arrays:
+        the host code's results do not change), from the host index (geometry/body_rows.py)."""
+        return self._body_rows.rows(np.asarray(list(bodies), dtype=np.int64).reshape(-1))
 
     def _gather(self, ids: np.ndarray) -> tuple[dict, int]:
         """take_bodies, step 2: the rows' columns (local ids) and how many extra links they hold."""
@@ -342,6 +321,7 @@ class ParticleStore:
             host[name] = _to_global(host[name], global_id)
         self._put_rows(global_id[k:].astype(np.int32), {n: c[k:] for n, c in host.items()}, made=True)
         self._put_rows(np.asarray(ids, np.int32), {n: c[:k] for n, c in host.items()}, made=False)
+        self._body_rows.write(global_id, ps.body, ps.alive, ps.kind, host["particle_parent"])
         self.count += n_new
         pairs = global_id[ps.extra_links] if len(ps.extra_links) else ps.extra_links
         self._append_extra(pairs, kill=extra_rows)
@@ -355,7 +335,7 @@ class ParticleStore:
         nothing (the host copy and `transfers` stay): sim/warm_up.py runs them (issue 16)."""
         columns = {(a.dtype, len(a.shape)): a for a in self._columns() + [self.link_extra]}.values()
         nothing = np.zeros(0, np.int32)
-        launches = [lambda: self._select([]), lambda: self._gather(nothing),  # the event's largest kernels first
+        launches = [lambda: self._gather(nothing),  # the event's largest kernels first
                     lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
                     lambda: self.first_invalid(device=True), lambda: self.body_totals(1, device=True),
                     *(functools.partial(_k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
