@@ -33,7 +33,8 @@ class BodyRows:
 
     def write(self, rows: np.ndarray, body: np.ndarray, alive: np.ndarray, kind: np.ndarray,
               parent: np.ndarray) -> None:
-        """Store rows `rows` (K,) now hold these values (per row, as `reset`; parent as a store row)."""
+        """Store rows `rows` (K,), each once, now hold these values (per row, as `reset`; parent as a store
+        row)."""
         rows = np.asarray(rows, np.int64)
         body, parent = np.asarray(body, np.int64), np.asarray(parent, np.int64)
         live = np.asarray(alive, bool) & (body >= 0)
@@ -41,22 +42,33 @@ class BodyRows:
         before = self._body[rows]
         self._body[rows] = np.where(live, body, -1)
         self._parent[rows] = np.where(live & (np.asarray(kind) == KIND_SUBDIVIDED), parent, -1)
-        affected = np.union1d(before[before >= 0], body[live])
-        # a body's alive rows after the write: its listed rows not rewritten, and the rewritten rows now its
-        listed = [self._rows.pop(b) for b in affected.tolist() if b in self._rows]
-        candidate = np.unique(np.concatenate([rows, *listed]))
-        candidate = candidate[np.isin(self._body[candidate], affected)]
-        if not len(candidate):
-            return
-        owner, par = self._body[candidate].astype(np.int64), self._parent[candidate]
+        was = before[before >= 0]
+        affected = np.flatnonzero(np.bincount(np.concatenate([was, body[live]]), minlength=1))
+        # a body's alive rows after the write: the rewritten rows now its, and its listed rows not rewritten
+        ascending = rows if np.all(rows[1:] > rows[:-1]) else np.sort(rows)
+        candidate = [rows]
+        for b in affected.tolist():
+            listed = self._rows.pop(b, None)
+            if listed is not None and len(ascending):
+                at = np.minimum(np.searchsorted(ascending, listed), len(ascending) - 1)
+                candidate.append(listed[ascending[at] != listed])
+            elif listed is not None:
+                candidate.append(listed)
+        candidate = np.concatenate(candidate)
+        owner = self._body[candidate].astype(np.int64)
+        mine = np.zeros(int(affected.max(initial=-1)) + 2, bool)  # (bodies + 1,) flag of the affected bodies
+        mine[affected] = True
+        keep = mine[np.where((owner >= 0) & (owner < len(mine)), owner, -1)]  # alive and of an affected body
+        candidate, owner = candidate[keep], owner[keep]
+        par = self._parent[candidate]
         child = par >= 0
-        row = np.concatenate([candidate, par[child]])  # the rows and the parents of the subdivided ones
-        owner = np.concatenate([owner, owner[child]])
-        order = np.lexsort((row, owner))
-        row, owner = row[order], owner[order]
-        once = np.r_[True, (row[1:] != row[:-1]) | (owner[1:] != owner[:-1])]  # a parent of several children
-        row, owner = row[once], owner[once]
-        first = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+        # (body, row) as one key, sorted: each body's rows and its subdivided rows' parents, ascending, once
+        span = len(self._body)
+        key = np.concatenate([owner * span + candidate, owner[child] * span + par[child]])
+        key.sort()
+        key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # a parent of several children
+        owner, row = np.divmod(key, span)
+        first = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]) if len(key) else np.zeros(0, np.int64)
         for a, b in zip(first.tolist(), np.r_[first[1:], len(owner)].tolist()):
             self._rows[int(owner[a])] = row[a:b].astype(np.int32)
 
