@@ -47,6 +47,7 @@ from core.heap import freeze_long_lived
 
 ROOT = Path(__file__).resolve().parents[1]
 CACHE_SUBDIR = "drawing"  # the drawing process's offline cache, inside the simulation's
+HINTS_KIND = "render"  # the project cache's folder (geometry/build_cache.py) of the remembered buffer sizes
 STDERR_TAIL = 2000  # characters of the drawing process's output kept in an error
 END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before it is killed
 FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
@@ -156,13 +157,15 @@ class DrawingProcess:
         import taichi as ti
 
         from core.runtime import runtime
+        from geometry.build_cache import cache_dir
 
         rt = runtime()
         cache = Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR
+        hints = cache_dir(HINTS_KIND)  # the project's cache (tests use their own), None where it is off
         ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
         self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
                                 height=height, out=str(out), video=video, fps=fps, stem=stem, cache=str(cache),
-                                scene_key=scene_key,
+                                hints=str(hints) if hints is not None else "", scene_key=scene_key,
                                 vulkan=ggui.known_vulkan_status() if ggui is not None else None))
 
     def send(self, what: str, data=None) -> None:
@@ -294,7 +297,8 @@ class _Drawer:
         from render.surface_blocks import SurfaceBlocks
 
         if what == "scene":
-            remember(Path(self.start["cache"]), self.start["scene_key"], data)
+            if self.start["hints"]:
+                remember(Path(self.start["hints"]), self.start["scene_key"], data)
             self.scene = RenderScene(**data)
         elif what == "blocks":
             self.blocks = SurfaceBlocks(**data)
@@ -325,7 +329,7 @@ class _Drawer:
         """Compile the renderer for the buffer sizes this scene asked for last time (render/prewarm.py)."""
         from render.prewarm import prewarm, remembered
 
-        sizes = remembered(Path(self.start["cache"]), self.start["scene_key"])
+        sizes = remembered(Path(self.start["hints"]), self.start["scene_key"]) if self.start["hints"] else None
         if sizes is not None:
             prewarm(self.renderer, sizes)
 

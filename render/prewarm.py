@@ -5,7 +5,8 @@ A frame's kernels take the scene's buffers as template arguments, so Taichi comp
 buffers, whose sizes (powers of two, render/scene_data.py) only the built World knows: the renderer's
 first frame waited about 1.1 s for them after the World was built (the pot, docs/decisions.md session
 36). The drawing process remembers the buffer sizes each scene asked for (`remember`: a small JSON
-file beside its Taichi cache, keyed by the scene's settings and the image's), and at its start, while
+file in the project's cache, `~/.cache/anisofrac/render/` (geometry/build_cache.py: the test suite
+uses a cache of its own), keyed by the scene's settings and the image's), and at its start, while
 the World builds, draws a one-triangle scene with the sizes remembered for this key (`prewarm`). It
 gives the buffers back to core/field_pool.py, where the scene takes them with the kernels compiled for
 them. A scene whose sizes differ (a changed mesh file, a new scene) compiles at its first frame, as
@@ -18,7 +19,7 @@ import json
 import os
 from pathlib import Path
 
-HINTS_FILE = "render_buffers.json"  # in the drawing process's Taichi cache folder
+HINTS_FILE = "render_buffers.json"  # in the project cache's render folder (draw_process.HINTS_KIND)
 MOST_HINTS = 64  # scenes remembered; the oldest are forgotten first
 SIZES = ("tri_capacity", "body_capacity", "particle_capacity", "line_capacity")
 

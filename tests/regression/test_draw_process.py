@@ -6,6 +6,7 @@ names its exit status."""
 from __future__ import annotations
 
 import json
+import os
 import sys
 import uuid
 
@@ -139,3 +140,10 @@ def test_a_scene_drawn_before_compiles_its_first_frame_while_the_world_builds(tm
         at_scene.append([name for phase, name in compiled if phase == "scene"])
     assert "_k_cover" in at_scene[0]  # the spy sees the first frame's compiles
     assert at_scene[1] == [], at_scene[1]
+    # remembered in the project's cache, which the test suite keeps apart from the user's (conftest.py)
+    from geometry.build_cache import CACHE_ENV, cache_dir
+    from render.draw_process import HINTS_KIND
+    from render.prewarm import HINTS_FILE
+
+    hints = cache_dir(HINTS_KIND) / HINTS_FILE
+    assert key in json.loads(hints.read_text()) and hints.is_relative_to(os.environ[CACHE_ENV])
