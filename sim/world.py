@@ -27,6 +27,7 @@ from scenes.config import SceneConfig
 from scenes.loader import resolve_mesh_path
 from sim.bodies import BodyInfo
 from sim.guards import check_neighbourhoods, check_scene, check_state, check_time_step
+from sim.impacts import collect_impacts, fracture_impacts
 from sim.stages import FRAME, SUBSTEP, build_stages, fracture_mode
 from sim.timers import StageTimers
 from sph.materials import oriented
@@ -338,7 +339,7 @@ class World:
                 with self.timers.stage(st.name):
                     self._run_stage(st.name, self.dt_frame, impacts)
         if impacts:
-            self._fracture(impacts)
+            fracture_impacts(self, impacts)
         check_state(self)
         self.frame += 1
         self.time += self.dt_frame
@@ -359,59 +360,11 @@ class World:
         elif name == "debris":
             self.debris.step(dt)
         elif name == "fracture.events":
-            self._collect_impacts(impacts)
+            collect_impacts(self, impacts)
         elif name == "elastic":
             self.elastic.step(self.elastic_steps_per_frame)
         else:
             raise AssertionError(f"no runner for stage {name!r}")
-
-    def _collect_impacts(self, impacts: dict[int, dict]) -> None:
-        """Keep, per breakable body, the hardest impact of this frame above the speed threshold."""
-        from sim.fracture_stage import contact_in_reference
-
-        threshold = self.cfg.scene.impact_threshold
-        if self.rigid.fastest_closing() <= threshold:
-            return  # no contact closes fast enough: nothing to download
-        pairs = self.rigid.contact_events().by_body_pair()
-        state = None  # the bodies' poses, downloaded once and only when an impact is kept
-        for k in range(len(pairs["impulse"])):
-            speed = -float(pairs["speed"][k])  # closing speed, m/s
-            if speed <= threshold:
-                continue
-            a, b = int(pairs["body_a"][k]), int(pairs["body_b"][k])
-            # the normal points from B to A: into A it is +n, into B it is -n
-            for struck, other, sign in ((a, b, 1.0), (b, a, -1.0)):
-                info = self.bodies.get(struck)
-                if info is None or not info.breakable:
-                    continue
-                best = impacts.get(struck)
-                if best is None or speed > best["speed"]:
-                    point, normal = pairs["point"][k].copy(), sign * pairs["normal"][k]
-                    state = self.rigid.body_state() if state is None else state
-                    impacts[struck] = dict(
-                        other=other, speed=speed, point=point, normal=normal, impulse=float(pairs["impulse"][k]),
-                        time_left=self._time_left,
-                        striker_v=self._substep_start.v[other].copy() if other >= 0 else None,
-                        striker_w=self._substep_start.w[other].copy() if other >= 0 else None,
-                        struck_v=self._substep_start.v[struck].copy(), struck_w=self._substep_start.w[struck].copy(),
-                        reference=contact_in_reference(self, struck, other, point, normal, state),
-                    )
-
-    def _fracture(self, impacts: dict[int, dict]) -> None:
-        from sim.fracture_stage import fracture_body
-        from sim.perforation import perforate
-
-        self.warm_events()  # left for the frames before a contact: all have run (sim/warm_up.py)
-        for body in sorted(impacts):
-            if body not in self.bodies or not self.rigid.body_state().alive[body]:
-                continue
-            info = self.bodies[body]
-            debris_from = self.debris.count if "debris" in self.stages else 0
-            record = fracture_body(self, body, impacts[body])
-            if record is not None:
-                record["perforation"] = perforate(self, body, info, impacts[body], record, debris_from)
-                self.events.append(record)
-                self.surface_version += 1
 
     def _scripted_cracks(self) -> None:
         """Cracks a scene applies at a given frame, without an impact analysis (teaching scenes)."""
