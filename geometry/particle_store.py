@@ -285,7 +285,7 @@ class ParticleStore:
         """The alive particles of `bodies` and the parents of their children, gathered: (store ids (K,)
         ascending, a local ParticleSet of K rows, their kernel tensors (K, 3, 3) 1/m, the store rows
         of their extra links). `put_body` writes a changed copy of one body back."""
-        ids = self._select(bodies)
+        ids = self._body_rows.rows(bodies)  # ascending: the order of the whole-world arrays (geometry/body_rows.py)
         cols, ne = self._gather(ids)
         rows = np.empty(ne, dtype=np.int32)
         _k_copy_rows_i32(ne, self.select_rows, rows)
@@ -296,13 +296,8 @@ class ParticleStore:
         ps = _particle_set(cols, pairs)
         return ids.astype(np.int64), ps, cols["particle_kernel"], rows
 
-    def _select(self, bodies) -> np.ndarray:
-        """take_bodies, step 1: the store ids (K,) int32, ascending (the order of the whole-world arrays:
-        the host code's results do not change), from the host index (geometry/body_rows.py)."""
-        return self._body_rows.rows(np.asarray(list(bodies), dtype=np.int64).reshape(-1))
-
     def _gather(self, ids: np.ndarray) -> tuple[dict, int]:
-        """take_bodies, step 2: the rows' columns (local ids) and how many extra links they hold."""
+        """take_bodies' gather: the rows' columns (local ids) and how many extra links they hold."""
         cols = {name: np.empty((len(ids), *shape), dtype=_kernel_dtype(host))
                 for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
         ne = _k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
