@@ -22,7 +22,7 @@ QUAD_RCOND = 1e-6  # relative singular-value cut of the quadratic moment matrix 
 PAD_SLOTS = 1 << 16  # (member, neighbour) slots padded at once: a block's arrays stay in cache
 RADIUS_BINS = 4  # neighbour searches per analysis, over members of similar support radius
 BIN_MEMBERS = 64  # members per bin at least: a small neighbourhood is searched at once, in line
-MASK_CELLS = 1 << 24  # (member, local particle) tests per launch of the kernels' neighbour test (bytes of its mask)
+PAIR_CELLS = 1 << 22  # (member, local particle) tests per launch of the kernels' neighbour test (its lists' room)
 
 
 def neighbour_pairs(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
@@ -69,20 +69,20 @@ def kernels_run() -> bool:
 
 
 def _pairs_by_kernel(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
-    """`neighbour_pairs` by one kernel over every (member, local particle): a mask, read row by row."""
+    """`neighbour_pairs` by one kernel over every (member, local particle), which lists the pairs."""
     from sph import gradient_kernels as gk
 
-    local = np.sort(local)  # the mask's rows list neighbours in this order: sorted by (e, j) as the numpy path
+    local = np.sort(local)  # each member's neighbours listed in this order: sorted by (e, j) as the numpy path
     xl, il = gk.f64(x[local]), gk.i32(local)
-    step = max(1, MASK_CELLS // max(local.size, 1))
+    step = max(1, PAIR_CELLS // max(local.size, 1))
     owner, nbr = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-    for a in range(0, members.size, step):  # members in chunks: the mask stays under MASK_CELLS bytes
+    count = np.zeros(1, np.int32)
+    for a in range(0, members.size, step):  # members in chunks: the lists' room stays under PAIR_CELLS pairs
         part = members[a:a + step]
-        mask = np.empty((part.size, local.size), np.uint8)
-        gk.k_pair_mask(gk.f64(x[part]), gk.f64(G[part]), gk.i32(part), xl, il, mask)
-        e, k = np.nonzero(mask)
-        owner.append(e.astype(np.int64) + a)
-        nbr.append(local[k].astype(np.int64))
+        e, k = np.empty(part.size * local.size, np.int32), np.empty(part.size * local.size, np.int32)
+        gk.k_pair_list(gk.f64(x[part]), gk.f64(G[part]), gk.i32(part), xl, il, e, k, count)
+        owner.append(e[:count[0]].astype(np.int64) + a)
+        nbr.append(local[k[:count[0]]].astype(np.int64))
     return np.concatenate(owner), np.concatenate(nbr)
 
 

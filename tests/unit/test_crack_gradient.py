@@ -184,7 +184,7 @@ def test_kernels_give_the_numpy_sums(monkeypatch):
 
     pairs, pairs_ref = both(gradient.neighbour_pairs, x, G, mem, local)
     assert all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(pairs, pairs_ref))
-    monkeypatch.setattr(gradient, "MASK_CELLS", 7 * local.size)  # members in chunks of 7: the same pairs
+    monkeypatch.setattr(gradient, "PAIR_CELLS", 7 * local.size)  # members in chunks of 7: the same pairs
     assert all(np.array_equal(a, b) for a, b in zip(gradient.neighbour_pairs(x, G, mem, local), pairs))
     seen = set()
     for order in (0, 1, 2):
