@@ -64,14 +64,24 @@ class MassProperties:
 
 
 def tet_second_moments(rest_verts: np.ndarray, masses: np.ndarray, origin: np.ndarray) -> np.ndarray:
-    """(T, 3, 3) kg m^2: int rho (x - o)(x - o)^T dV of each tet (exact for constant density)."""
+    """(T, 3, 3) kg m^2: int rho (x - o)(x - o)^T dV of each tet (exact for constant density).
+
+    The six distinct entries, each over contiguous coordinate columns and mirrored: the same
+    operations in the same order per entry as the (T, 3, 3) outer products, so the same bits, 3x faster
+    for a pot's fragments (tests/unit/test_rigid_mass.py)."""
     v = np.asarray(rest_verts, dtype=np.float64) - origin
-    s = v.sum(axis=1)
-    vv = v[:, 0, :, None] * v[:, 0, None, :]  # sum_k v_k v_k^T, in einsum's order (the same bits, 35% faster)
-    for k in range(1, 4):
-        vv += v[:, k, :, None] * v[:, k, None, :]
-    vv += s[:, :, None] * s[:, None, :]
-    return (np.asarray(masses, dtype=np.float64) / 20.0)[:, None, None] * vv
+    col = np.ascontiguousarray(v.transpose(1, 2, 0))  # (4, 3, T): vertex k's coordinate a over the tets
+    s = col.sum(axis=0)  # (3, T): sum_k v_k
+    w = np.asarray(masses, dtype=np.float64) / 20.0
+    out = np.empty((len(v), 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            e = col[0, a] * col[0, b]  # sum_k v_k v_k^T, vertex by vertex, then + s s^T
+            for k in range(1, 4):
+                e += col[k, a] * col[k, b]
+            e += s[a] * s[b]
+            out[:, a, b] = out[:, b, a] = w * e
+    return out
 
 
 def inertia_floor(mass: float, volume: float, ratio: float = INERTIA_FLOOR_RATIO) -> float:

@@ -328,9 +328,8 @@ def rankine_test(ms: MemberState, gr: Groups, T1: np.ndarray, n: np.ndarray, N: 
     across_mean = group_mean(across, gr, N) if cleavage is not None else np.zeros(N)
     pvals = np.zeros((N, 3))
     pdirs = np.zeros((N, 3))
-    values, vectors = sym_eig3_np(T1.reshape(N, 3, 3))  # sph.eigen as the conventions ask
-    for k in range(N):  # N groups (a handful)
-        vals, vecs = values[k], vectors[k]
+    for k in range(N):  # N groups (a handful): sph.eigen as the conventions ask
+        vals, vecs = sym_eig3_np(T1[k])
         nk = cleavage.normal if opens_on_plane(across_mean[k], vals[0], cleavage, sigma_t) else vecs[:, 0]
         t_k = np.cross(n, gr.bisector[k])
         ref = float(np.dot(nk, t_k))

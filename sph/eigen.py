@@ -101,54 +101,55 @@ def sym_eig3(A):
 # ----------------------------------------------------------------------------- numpy twin
 
 
-def sym_eig3_np(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """numpy twin of `sym_eig3` for (3,3) or (n,3,3) input: (values desc, column eigenvectors).
+def _sym_eig3_one(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    S = 0.5 * (A + A.T)
+    m = np.trace(S) / 3.0
+    B = S - m * np.eye(3)
+    scale = np.abs(B).max()
+    V = np.eye(3)
+    if scale > 0.0:
+        B = B / scale
+        tol = np.finfo(np.float64).eps ** 2 * 1e-2
+        for _ in range(MAX_SWEEPS):
+            if B[0, 1] ** 2 + B[0, 2] ** 2 + B[1, 2] ** 2 <= tol:
+                break
+            for p, q in ((0, 1), (0, 2), (1, 2)):
+                apq = B[p, q]
+                if apq == 0.0:
+                    continue
+                theta = (B[q, q] - B[p, p]) / (2.0 * apq)
+                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                J = np.eye(3)
+                J[p, p] = J[q, q] = c
+                J[p, q] = s
+                J[q, p] = -s
+                B = J.T @ B @ J
+                B[p, q] = B[q, p] = 0.0
+                V = V @ J
+        B = B * scale
+    vals = np.diag(B) + m
+    order = np.argsort(-vals, kind="stable")
+    vals = vals[order]
+    V = V[:, order]
+    if np.linalg.det(V) < 0.0:
+        V[:, 2] = -V[:, 2]
+    return vals, V
 
-    A batch runs the sweeps side by side, each matrix stopping at its own tolerance; every matrix gets
-    exactly the operations (and so the bits) it would get alone (a loop over matrices took 0.15-0.3 ms
-    each, 0.2 s of Pots' analyses; tests/unit/test_sph_eigen.py compares with a batch of one each)."""
+
+def sym_eig3_np(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """numpy twin of `sym_eig3` for (3,3) or (n,3,3) input: (values desc, column eigenvectors)."""
     A = np.asarray(A, dtype=np.float64)
     if A.shape == (3, 3):
-        vals, vecs = sym_eig3_np(A[None])
-        return vals[0], vecs[0]
-    n = A.shape[0]
-    S = 0.5 * (A + A.transpose(0, 2, 1))
-    m = np.trace(S, axis1=1, axis2=2) / 3.0
-    B = S - m[:, None, None] * np.eye(3)
-    scale = np.abs(B).reshape(n, 9).max(axis=1, initial=0.0)
-    V = np.tile(np.eye(3), (n, 1, 1))
-    live = scale > 0.0
-    B[live] = B[live] / scale[live, None, None]
-    tol = np.finfo(np.float64).eps ** 2 * 1e-2
-    for _ in range(MAX_SWEEPS):
-        live &= B[:, 0, 1] ** 2 + B[:, 0, 2] ** 2 + B[:, 1, 2] ** 2 > tol
-        if not live.any():
-            break
-        for p, q in ((0, 1), (0, 2), (1, 2)):
-            k = np.flatnonzero(live & (B[:, p, q] != 0.0))
-            if k.size == 0:
-                continue
-            apq = B[k, p, q]
-            theta = (B[k, q, q] - B[k, p, p]) / (2.0 * apq)
-            t = 1.0 / (np.abs(theta) + np.sqrt(theta * theta + 1.0))
-            t = np.where(theta < 0.0, -t, t)
-            c = 1.0 / np.sqrt(t * t + 1.0)
-            s = t * c
-            J = np.tile(np.eye(3), (k.size, 1, 1))
-            J[:, p, p] = J[:, q, q] = c
-            J[:, p, q] = s
-            J[:, q, p] = -s
-            Bk = J.transpose(0, 2, 1) @ B[k] @ J
-            Bk[:, p, q] = Bk[:, q, p] = 0.0
-            B[k] = Bk
-            V[k] = V[k] @ J
-    B = np.where((scale > 0.0)[:, None, None], B * scale[:, None, None], B)
-    vals = np.diagonal(B, axis1=1, axis2=2) + m[:, None]
-    order = np.argsort(-vals, axis=1, kind="stable")
-    vals = np.take_along_axis(vals, order, axis=1)
-    V = np.take_along_axis(V, order[:, None, :], axis=2)
-    V[np.linalg.det(V) < 0.0, :, 2] *= -1.0
-    return vals, V
+        return _sym_eig3_one(A)
+    vals = np.empty(A.shape[:-1])
+    vecs = np.empty_like(A)
+    for k in range(A.shape[0]):
+        vals[k], vecs[k] = _sym_eig3_one(A[k])
+    return vals, vecs
 
 
 @ti.kernel

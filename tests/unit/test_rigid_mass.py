@@ -21,6 +21,25 @@ def test_unit_tet_covariance_is_canonical():
     np.testing.assert_allclose(c, (np.ones((3, 3)) + np.eye(3)) / 120.0, rtol=1e-15, atol=1e-17)
 
 
+def test_second_moments_are_the_outer_products_bit_for_bit():
+    """The six-entry columns give each tet exactly m/20 (sum_k v_k v_k^T + s s^T) as outer products in
+    that order, and so the same sums over tets (a body's inertia does not move with the layout)."""
+    rng = np.random.default_rng(3)
+    v = rng.uniform(-0.1, 0.1, size=(517, 4, 3))
+    m = rng.uniform(1e-4, 2e-4, 517)
+    origin = v.mean(axis=(0, 1))
+    d = v - origin
+    s = d.sum(axis=1)
+    vv = d[:, 0, :, None] * d[:, 0, None, :]
+    for k in range(1, 4):
+        vv += d[:, k, :, None] * d[:, k, None, :]
+    vv += s[:, :, None] * s[:, None, :]
+    outer = (m / 20.0)[:, None, None] * vv
+    got = tet_second_moments(v, m, origin)
+    assert np.array_equal(got, outer)
+    assert np.array_equal(got.sum(axis=0), outer.sum(axis=0))
+
+
 @pytest.mark.parametrize("div", [(1, 1, 1), (2, 3, 1)])
 def test_box_of_tets_matches_the_solid_box(div):
     h = np.array([0.3, 0.2, 0.05])
