@@ -15,10 +15,9 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from core.errors import ConfigError
+from geometry.components import component_labels
 from geometry.cutting import (
     Bodies,
     Crack,
@@ -66,17 +65,7 @@ def fragment_labels(ps: ParticleSet, bodies: Bodies = None) -> np.ndarray:
     r = np.concatenate(rows)
     c = np.concatenate(cols)
     ok = sel[r] & sel[c]
-    g = coo_matrix((np.ones(int(ok.sum()), dtype=np.int8), (r[ok], c[ok])), shape=(n, n)).tocsr()
-    _, comp = connected_components(g, directed=False)
-    labels = np.full(n, -1, dtype=np.int64)
-    ids = np.flatnonzero(sel)
-    if ids.size:
-        # renumber by first appearance (ids ascending -> smallest member first)
-        _, first, inv = np.unique(comp[ids], return_index=True, return_inverse=True)
-        rank = np.empty(first.size, dtype=np.int64)
-        rank[np.argsort(first, kind="stable")] = np.arange(first.size)
-        labels[ids] = rank[inv.ravel()]
-    return labels
+    return component_labels(n, np.flatnonzero(sel), r[ok], c[ok])
 
 
 def fragment_volumes(ps: ParticleSet, labels: np.ndarray) -> np.ndarray:

@@ -112,7 +112,7 @@ def mass_properties(
         raise MeshError(source, "tets with non-positive mass", f"{int((m <= 0).sum())} of {len(m)}")
     total = math.fsum(m.tolist())
     vol = math.fsum(np.abs(signed_volumes(verts)).tolist())
-    centroids = verts.mean(axis=1)
+    centroids = (((verts[:, 0] + verts[:, 1]) + verts[:, 2]) + verts[:, 3]) / 4.0  # mean(axis=1)'s bits, 4x faster
     origin = centroids.mean(axis=0)
     first = (m[:, None] * (centroids - origin)).sum(axis=0)
     d = first / total

@@ -72,6 +72,7 @@ def warm_pieces(world) -> list:
     from functools import partial
 
     from geometry.boundary_groups import warm_up as warm_grouping
+    from geometry.components import warm_up as warm_components
     from sph.gradient import kernels_run
     from sph.gradient_kernels import warm_pieces as gradient_pieces
 
@@ -80,6 +81,7 @@ def warm_pieces(world) -> list:
     if kernels_run():
         pieces += gradient_pieces()  # the analysis' neighbour test and Eq. 7 sums
     pieces.append(warm_grouping)  # the new pieces' boundary spheres (a build reads its own from the cache)
+    pieces.append(warm_components)  # the fragments' labels
     pieces += world.store.warm_pieces()
     if "rigid" in world.stages:
         pieces += world.rigid.warm_event_pieces()
