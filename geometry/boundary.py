@@ -26,8 +26,10 @@ Groups kept through a split (`keep`, issue 16 item 3: an event's cost grows with
 with the body): a fragment's surface away from the crack is the parent's, so a group of the parent
 whose members are all still surface particles of one fragment, with the same free faces, keeps its
 members; its sphere is then the parent's sphere, bit for bit (centre, radius and pull inside come
-from the members alone). Only the other surface particles (the crack's faces, and the groups it
-broke) are grouped by the rule above, among themselves. A chip's corner spheres are not kept.
+from the members alone), and is taken as it was where `keep` holds it (made again otherwise: the
+same numbers). Only the other surface particles (the crack's faces, and the groups it broke) are
+grouped by the rule above, among themselves, and only their spheres are made. A chip's corner
+spheres are not kept.
 
 Departure from the paper (docs/decisions.md): with the members' free faces given, the sphere's
 centre is moved inwards along the group's mean outward normal until its outermost point lies on
@@ -79,6 +81,9 @@ class KeptGroups:
     member_start: np.ndarray  # (G + 1,) int64: CSR offsets into `members`
     members: np.ndarray  # (M,) int64: each group's rows in the call's arrays, -1 where the particle is gone
     member_faces: np.ndarray  # (M,) uint8: each member's free faces when the group was made (bit k: face k)
+    position: np.ndarray | None = None  # (G, 3) m: each group's sphere when it was made (reference frame)
+    radius: np.ndarray | None = None  # (G,) m
+    mass: np.ndarray | None = None  # (G,) kg
 
 
 def face_bits(free_faces: np.ndarray) -> np.ndarray:
@@ -228,9 +233,13 @@ def build_boundary_particles(
     new_group = np.r_[True, (key[1:] != key[:-1]).any(axis=1)]
     g = np.cumsum(new_group) - 1
     start = np.r_[np.flatnonzero(new_group), len(members)].astype(np.int64)
-    c, rad, msum = _group_spheres(g, start, centroid[members], radius[members], mass[members])
-    if rest_verts is not None and free_faces is not None:
-        c = _pull_inside(c, rad, g, start, centroid[members], rest_verts[members], free_faces[members])
+    made = np.ones(len(start) - 1, bool)  # the groups whose spheres are made here
+    if keep is not None and keep.position is not None and rest_verts is not None and bits is not None:
+        made = fresh[order][start[:-1]] == 1  # a kept group's sphere is its parent's (module doc)
+    c, rad, msum = _made_spheres(made, g, start, members, centroid, radius, mass, rest_verts, free_faces)
+    if not made.all():
+        src = group[order][start[:-1]][~made]
+        c[~made], rad[~made], msum[~made] = keep.position[src], keep.radius[src], keep.mass[src]
     out = BoundaryParticles(
         position=c,
         radius=rad,
@@ -242,6 +251,25 @@ def build_boundary_particles(
         corner=np.zeros(len(c), bool),
     )
     return out if rest_verts is None else _chips_on_corners(out, rest_verts, mass)
+
+
+def _made_spheres(made, g, start, members, centroid, radius, mass, rest_verts, free_faces):
+    """Centres (pulled inside where the faces are given), radii and masses of the groups where `made`
+    (G,) bool, of the grouping `g`, `start` over the rows `members`; the other groups' entries are
+    left for the caller. Each group's numbers come from its own members alone."""
+    ng = len(start) - 1
+    c, rad, msum = np.empty((ng, 3)), np.empty(ng), np.empty(ng)
+    if not made.any():
+        return c, rad, msum
+    mine = made[g]
+    rows = members[mine]
+    sub_g = (np.cumsum(made) - 1)[g[mine]]
+    sub_start = np.r_[0, np.cumsum(np.diff(start)[made])]
+    cm, rm, mm = _group_spheres(sub_g, sub_start, centroid[rows], radius[rows], mass[rows])
+    if rest_verts is not None and free_faces is not None:
+        cm = _pull_inside(cm, rm, sub_g, sub_start, centroid[rows], rest_verts[rows], free_faces[rows])
+    c[made], rad[made], msum[made] = cm, rm, mm
+    return c, rad, msum
 
 
 def area_weights(radius: np.ndarray, parent: np.ndarray, ids: np.ndarray) -> np.ndarray:

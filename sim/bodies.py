@@ -17,6 +17,9 @@ class SphereGroups:
     member_start: np.ndarray  # (G + 1,) int64: CSR offsets into `members`
     members: np.ndarray  # (M,) int64: store ids of each group's particles, ascending within a group
     member_faces: np.ndarray  # (M,) uint8: their free faces when the group was made (bit k: face k)
+    position: np.ndarray  # (G, 3) m: each group's sphere, reference frame
+    radius: np.ndarray  # (G,) m
+    mass: np.ndarray  # (G,) kg
 
 
 def sphere_groups(bp, store_ids: np.ndarray, body: int) -> SphereGroups | None:
@@ -28,7 +31,8 @@ def sphere_groups(bp, store_ids: np.ndarray, body: int) -> SphereGroups | None:
         return None
     a, b = bp.member_start[lo], bp.member_start[hi]
     return SphereGroups(bp.member_start[lo:hi + 1] - a, np.asarray(store_ids)[bp.members[a:b]],
-                        bp.member_faces[a:b].copy())
+                        bp.member_faces[a:b].copy(), bp.position[lo:hi].copy(), bp.radius[lo:hi].copy(),
+                        bp.mass[lo:hi].copy())
 
 
 def kept_groups(groups: SphereGroups | None, store_ids: np.ndarray):
@@ -42,7 +46,8 @@ def kept_groups(groups: SphereGroups | None, store_ids: np.ndarray):
     pos = np.searchsorted(store_ids, groups.members)
     there = pos < len(store_ids)
     there[there] = store_ids[pos[there]] == groups.members[there]
-    return KeptGroups(groups.member_start, np.where(there, pos, -1), groups.member_faces)
+    return KeptGroups(groups.member_start, np.where(there, pos, -1), groups.member_faces, groups.position,
+                      groups.radius, groups.mass)
 
 
 @dataclass

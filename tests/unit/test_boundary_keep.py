@@ -79,6 +79,21 @@ def test_a_fragment_keeps_the_groups_the_crack_left_whole_with_their_spheres(spl
     assert _leading_kept(bp, ids, set(parent)) == len(expected)
 
 
+def test_a_kept_sphere_taken_as_it_was_is_the_one_made_again(split_box):
+    """A kept group's sphere is taken from its parent (only the new groups' spheres are made): the
+    spheres are, bit for bit, those made again from the kept members, as without the parent's spheres."""
+    from dataclasses import replace
+
+    _, _, groups, cut, ids, labels = split_box
+    keep = kept_groups(groups, ids)
+    taken = boundary_spheres(cut, ids, labels, GROUP, keep=keep)
+    made = boundary_spheres(cut, ids, labels, GROUP, keep=replace(keep, position=None, radius=None, mass=None))
+    for name in ("position", "radius", "mass", "body", "member_start", "members", "member_faces"):
+        assert np.array_equal(getattr(taken, name), getattr(made, name)), name
+    moved = replace(keep, position=keep.position + 1.0)  # taken, not made: a moved parent sphere shows
+    assert not np.array_equal(boundary_spheres(cut, ids, labels, GROUP, keep=moved).position, taken.position)
+
+
 def test_every_surface_particle_is_in_one_sphere_kept_or_new(split_box):
     """The kept groups and the new ones cover each fragment's surface once, with its mass counted once
     and each member's faces as they are now; without `keep` a whole regrouping covers the same surface."""
