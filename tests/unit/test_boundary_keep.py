@@ -5,6 +5,8 @@ crack's faces and the groups the crack broke) are grouped anew."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -82,8 +84,6 @@ def test_a_fragment_keeps_the_groups_the_crack_left_whole_with_their_spheres(spl
 def test_a_kept_sphere_taken_as_it_was_is_the_one_made_again(split_box):
     """A kept group's sphere is taken from its parent (only the new groups' spheres are made): the
     spheres are, bit for bit, those made again from the kept members, as without the parent's spheres."""
-    from dataclasses import replace
-
     _, _, groups, cut, ids, labels = split_box
     keep = kept_groups(groups, ids)
     taken = boundary_spheres(cut, ids, labels, GROUP, keep=keep)
