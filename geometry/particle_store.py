@@ -32,7 +32,7 @@ import taichi as ti
 
 from geometry.body_rows import BodyRows
 from geometry.particles import ParticleSet
-from geometry.store_checks import host_first_invalid, k_first_invalid
+from geometry.store_checks import Arr, host_first_invalid, k_first_invalid
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
@@ -41,7 +41,6 @@ MIN_CAPACITY = 64  # rows: the smallest store
 # outgrow it (4.0 rows), and growing doubles it with a device copy whose kernels warm_pieces compiles
 HEADROOM = 4
 
-Arr = ti.types.ndarray()
 Ref = ti.template()  # an ndarray handed on to a ti.func
 
 

@@ -9,7 +9,7 @@ No `from __future__ import annotations` here: Taichi reads the kernel's annotati
 import numpy as np
 import taichi as ti
 
-Arr = ti.types.ndarray()
+Arr = ti.types.ndarray()  # any ndarray argument (also the particle store's kernels)
 
 
 @ti.func
