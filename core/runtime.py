@@ -154,6 +154,12 @@ def taichi_started() -> bool:
     return _runtime is not None
 
 
+def started_on_cpu() -> bool:
+    """True once Taichi runs on the CPU backend: where the host-side kernels of events run (the analysis'
+    sums, the fragments' labels); before it starts, and on CUDA, their numpy or scipy twins answer."""
+    return _runtime is not None and _runtime.arch == "cpu"
+
+
 def ensure_runtime() -> RuntimeInfo:
     """The running configuration, starting Taichi with the defaults (cpu, f32, 1 thread) if needed."""
     return _runtime if _runtime is not None else init_taichi()

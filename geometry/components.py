@@ -13,6 +13,8 @@ import functools
 
 import numpy as np
 
+from core.runtime import started_on_cpu
+
 
 @functools.cache
 def _kernel():
@@ -51,18 +53,12 @@ def _kernel():
     return k_component_labels
 
 
-def _use_kernel() -> bool:
-    from core.runtime import runtime, taichi_started
-
-    return taichi_started() and runtime().arch == "cpu"
-
-
 def component_labels(n: int, ids: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(n,) int64: the component of each of the particles `ids` (ascending) over the undirected links
     (rows[e], cols[e]) among them, numbered 0.. in order of each component's smallest particle; -1 for
     the particles not in `ids`."""
     ids = np.asarray(ids, np.int64)
-    if not _use_kernel():
+    if not started_on_cpu():
         return component_labels_reference(n, ids, rows, cols)
     parent = np.arange(n, dtype=np.int32)
     labels = np.full(n, -1, np.int32)
@@ -92,6 +88,6 @@ def component_labels_reference(n: int, ids: np.ndarray, rows: np.ndarray, cols: 
 
 def warm_up() -> None:
     """Launch the kernel on nothing: it compiles, for sim/warm_up.py, before an event needs it."""
-    if _use_kernel():
+    if started_on_cpu():
         nothing = np.zeros(0, np.int64)
         component_labels(0, nothing, nothing, nothing)

@@ -63,9 +63,9 @@ def kernels_run() -> bool:
     """Whether the neighbour test and the gradient's sums run as Taichi kernels (sph/gradient_kernels.py):
     on a started CPU runtime. Before Taichi starts, and on CUDA (float64 local matrices fail there,
     docs/decisions.md "CUDA and f64"), the numpy code below runs: the same sums in another order."""
-    from core.runtime import runtime, taichi_started
+    from core.runtime import started_on_cpu
 
-    return taichi_started() and runtime().arch == "cpu"
+    return started_on_cpu()
 
 
 def _pairs_by_kernel(x: np.ndarray, G: np.ndarray, members: np.ndarray, local: np.ndarray) -> tuple:
