@@ -5,7 +5,7 @@ masses, the pre-solve normal speed, warm-start impulses matched by (a, b) key)."
 
 import taichi as ti
 
-from rigid.broad_phase import cell_hash, cell_size
+from rigid.broad_phase import cell_hash
 from rigid.kernel_math import (
     BIG,
     is_active,
@@ -67,7 +67,7 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
 
     write=False counts them and raises wake requests; write=True writes keys into i's segment.
     """
-    hmask = s.grid_size - 1
+    hmask = s.grid_mask[None]
     cnt = 0
     base = 0
     if ti.static(write):
@@ -85,56 +85,57 @@ def scan_sphere(s: ti.template(), i, ncol, margin, write: ti.template()):
                     s.ct_a[base + cnt] = i
                     s.ct_b[base + cnt] = -1 - k
                 cnt += 1
-    ci = s.bp_cell[i]
     own_end = s.body_sphere_end[bi]
-    cell = cell_size(s, margin)
-    # farthest centre of a partner, padded against the rounding of the cell assignment
-    reach = (ri + swi + margin + s.max_reach[None]) * (1.0 + 1e-5) + 1e-5 * cell
-    for dz in range(-1, 2):
-        for dy in range(-1, 2):
-            for dx in range(-1, 2):
-                cn = ci + ivec3(dx, dy, dz)
-                # skip neighbour cells whose box is out of reach (most of the 27)
-                lo = vec3(cn[0], cn[1], cn[2]) * cell
-                gap_box = ti.max(ti.max(lo - xi, xi - (lo + cell)), 0.0)
-                if gap_box.norm_sqr() > reach * reach:
-                    continue
-                h = cell_hash(cn, hmask)
+    lo_i, hi_i = s.bp_cell_lo[i], s.bp_cell_hi[i]
+    for cz in range(lo_i[2], hi_i[2] + 1):
+        for cy in range(lo_i[1], hi_i[1] + 1):
+            for cx in range(lo_i[0], hi_i[0] + 1):
+                h = cell_hash(ivec3(cx, cy, cz), hmask)
+                if s.grid_top[h] < own_end:
+                    continue  # the walk below would stop at its first entry
                 # a bucket lists its spheres in increasing id (fill_grid's serial scatter) and i's body holds
                 # the ids i+1..end-1 after it (fill_grid): walk the bucket from the top and stop at the
                 # first j < end, past every partner j > i of another body and none of i's own
                 first, last = s.grid_start[h], s.grid_start[h + 1]
+                prev = -1
                 for t in range(last - first):
                     j = s.grid_entry[last - 1 - t]
                     if j < own_end:
                         break
+                    if j == prev:
+                        continue  # two of j's cells share this bucket: its entries stand side by side
+                    prev = j
                     # the pair cannot touch when the centres are farther apart than both reaches and the
                     # margin: read from the bucket's own copy, in sequence (most candidates stop here)
                     xr = s.grid_reach[last - 1 - t]
                     far = (ri + swi + margin + xr[3]) * (1.0 + 1e-5)
                     if (xi - xr.xyz).norm_sqr() > far * far:
                         continue
-                    cj = s.bp_cell[j]
-                    if cj[0] == cn[0] and cj[1] == cn[1] and cj[2] == cn[2]:
-                        bj = s.bp_body[j]
-                        aj = s.body_active[bj]
-                        if ai == 1 or aj == 1:
-                            gap = (xi - s.bp_x[j]).norm() - ri - s.bp_radius[j]
-                            # speculative by RELATIVE motion: how far the pair can close this step; the
-                            # absolute sweeps (swi + sweep_j) only bound it, and pieces of a body that
-                            # just split move together (the grid search above keeps using the bound)
-                            closing = (s.bp_disp[i] - s.bp_disp[j]).norm() + s.bp_arc[i] + s.bp_arc[j]
-                            if gap < margin + ti.min(closing, swi + s.bp_sweep[j]):
-                                if ti.static(write):
-                                    s.ct_a[base + cnt] = i
-                                    s.ct_b[base + cnt] = j
-                                else:
-                                    # a moving body wakes a sleeping one it touches ("a hit wakes them")
-                                    if ai == 1 and s.body_asleep[bj] == 1 and s.body_sleep_time[bi] == 0.0:
-                                        s.body_wake[bj] = 1
-                                    if aj == 1 and s.body_asleep[bi] == 1 and s.body_sleep_time[bj] == 0.0:
-                                        s.body_wake[bi] = 1
-                                cnt += 1
+                    # a pair is met in one cell only, the lowest both boxes cover (broad_phase.box_cells);
+                    # this also drops a j listed here for another cell with the same hash
+                    lo_j, hi_j = s.bp_cell_lo[j], s.bp_cell_hi[j]
+                    if (ti.max(lo_i[0], lo_j[0]) != cx or ti.max(lo_i[1], lo_j[1]) != cy
+                            or ti.max(lo_i[2], lo_j[2]) != cz or cx > hi_j[0] or cy > hi_j[1] or cz > hi_j[2]):
+                        continue
+                    bj = s.bp_body[j]
+                    aj = s.body_active[bj]
+                    if ai == 1 or aj == 1:
+                        gap = (xi - s.bp_x[j]).norm() - ri - s.bp_radius[j]
+                        # speculative by RELATIVE motion: how far the pair can close this step; the
+                        # absolute sweeps (swi + sweep_j) only bound it, and pieces of a body that
+                        # just split move together (the grid search above keeps using the bound)
+                        closing = (s.bp_disp[i] - s.bp_disp[j]).norm() + s.bp_arc[i] + s.bp_arc[j]
+                        if gap < margin + ti.min(closing, swi + s.bp_sweep[j]):
+                            if ti.static(write):
+                                s.ct_a[base + cnt] = i
+                                s.ct_b[base + cnt] = j
+                            else:
+                                # a moving body wakes a sleeping one it touches ("a hit wakes them")
+                                if ai == 1 and s.body_asleep[bj] == 1 and s.body_sleep_time[bi] == 0.0:
+                                    s.body_wake[bj] = 1
+                                if aj == 1 and s.body_asleep[bi] == 1 and s.body_sleep_time[bj] == 0.0:
+                                    s.body_wake[bi] = 1
+                            cnt += 1
     return cnt
 
 

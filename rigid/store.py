@@ -16,6 +16,7 @@ import taichi as ti
 
 from core import field_pool
 from core.field_pool import pow2_at_least
+from rigid.broad_phase import ENTRIES_PER_SPHERE
 
 
 @ti.data_oriented
@@ -41,11 +42,18 @@ class RigidStore:
         self._contacts(dense, nct)
         # ---- scalars ----
         self.max_reach = ti.field(float)  # () m: largest sphere radius + sweep this step
+        self.sum_reach = ti.field(float)  # () m: sum of the spheres' radius + sweep this step
+        self.max_half = ti.field(float)  # () m: largest half-width of a sphere's box this step
+        self.grid_cell = ti.field(float)  # () m: the grid's cell edge this step
+        self.grid_entries = ti.field(ti.i64)  # () -: entries the boxes need at the first choice of cell edge
+        self.grid_mask = ti.field(ti.i32)  # () -: buckets in use this step - 1 (a power of two - 1, < grid_size)
         self.ct_total = ti.field(ti.i32)  # () -: contacts found by the narrow-phase count
         self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
         self.max_level = ti.field(ti.i32)  # () -: largest support level this step
         self.max_closing = ti.field(float)  # () m/s: fastest closing speed of a contact that took impulse
-        fb.place(self.max_reach, self.ct_total, self.pc_valid, self.max_level, self.max_closing)
+        fb.place(self.max_reach, self.sum_reach, self.max_half, self.grid_cell, self.grid_entries, self.grid_mask,
+                 self.ct_total,
+                 self.pc_valid, self.max_level, self.max_closing)
         fb.finalize()
 
     def _bodies(self, dense, nb: int) -> None:
@@ -101,9 +109,9 @@ class RigidStore:
         self.bp_sweep = ti.field(float)  # (NS,) m: distance the sphere may travel this step
         self.bp_disp = vec3.field()  # (NS,) m: its displacement this step at the start velocities (v + w x r) dt
         self.bp_arc = ti.field(float)  # (NS,) m: bound on how far a rotation's arc leaves that line, (|w| dt)^2 r / 2
-        self.bp_cell = ivec3.field()  # (NS,) -: grid cell
-        self.bp_hash = ti.field(ti.i32)  # (NS,) -: hash bucket of the cell
-        dense(ns, self.bp_x, self.bp_sweep, self.bp_disp, self.bp_arc, self.bp_cell, self.bp_hash)
+        self.bp_cell_lo = ivec3.field()  # (NS,) -: lowest grid cell the sphere's box covers (broad_phase.box_cells)
+        self.bp_cell_hi = ivec3.field()  # (NS,) -: highest grid cell it covers
+        dense(ns, self.bp_x, self.bp_sweep, self.bp_disp, self.bp_arc, self.bp_cell_lo, self.bp_cell_hi)
         self.bp_ct_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of this step's contacts by sphere
         self.bp_pc_start = ti.field(ti.i32)  # (NS+1,) -: CSR offsets of the previous step's contacts
         dense(ns + 1, self.bp_ct_start, self.bp_pc_start)
@@ -113,12 +121,14 @@ class RigidStore:
         # ---- broad phase: hashed uniform grid ----
         self.grid_count = ti.field(ti.i32)  # (H,) -: spheres per bucket
         self.grid_fill = ti.field(ti.i32)  # (H,) -: scatter cursor per bucket
-        dense(self.grid_size, self.grid_count, self.grid_fill)
+        self.grid_top = ti.field(ti.i32)  # (H,) -: the bucket's largest sphere id, -1 when empty
+        dense(self.grid_size, self.grid_count, self.grid_fill, self.grid_top)
         self.grid_start = ti.field(ti.i32)  # (H+1,) -: CSR offsets into grid_entry
         dense(self.grid_size + 1, self.grid_start)
-        self.grid_entry = ti.field(ti.i32)  # (NS,) -: sphere ids sorted by bucket, then id
-        self.grid_reach = ti.math.vec4.field()  # (NS,) m: that sphere's centre and radius + sweep, in entry order
-        dense(ns, self.grid_entry, self.grid_reach)
+        # a sphere is listed in every cell its box covers: at most ENTRIES_PER_SPHERE on average (choose_cell)
+        self.grid_entry = ti.field(ti.i32)  # (E,) -: sphere ids sorted by bucket, then id
+        self.grid_reach = ti.math.vec4.field()  # (E,) m: that sphere's centre and radius + sweep, in entry order
+        dense(ENTRIES_PER_SPHERE * ns, self.grid_entry, self.grid_reach)
 
     def _colliders(self, dense, ncol: int) -> None:
         """Per static collider (plane or oriented box)."""
