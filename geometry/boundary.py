@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import cross3
 from core.host_threads import host_cores
 from geometry.boundary_groups import greedy_groups
 
@@ -333,7 +334,7 @@ def free_face_normals(rest_verts: np.ndarray, free_faces: np.ndarray, centroid: 
 
     p, f = np.nonzero(free_faces)  # particle ascending, then face: each particle's faces in face order
     tri = rest_verts[p[:, None], TET_FACES[f]]  # (F, 3, 3)
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n = cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
     depth = np.zeros(free_faces.shape)
     depth[p, f] = np.einsum("fk,fk->f", n, tri[:, 0] - centroid[p])

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.arrays import cross3
 from core.errors import ConfigError
 from geometry.freeing import freed_particles
 from geometry.particles import ParticleSet, tet_edge
@@ -302,7 +303,7 @@ def section_meets_region(crack: Crack, verts: np.ndarray, d: np.ndarray | None =
     hit = np.zeros(len(verts), dtype=bool)
     for i in range(4):  # 4 polygon edges (fixed count, vectorised over tets)
         hit |= _inplane_segment_meets_region(crack, poly[:, i], nxt[:, i])
-    cr = np.einsum("mij,j->mi", np.cross(nxt - poly, crack.point - poly), crack.normal)
+    cr = np.einsum("mij,j->mi", cross3(nxt - poly, crack.point - poly), crack.normal)
     inside = np.all(cr >= 0.0, axis=1) | np.all(cr <= 0.0, axis=1)
     return straddle & (hit | inside)
 

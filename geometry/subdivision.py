@@ -40,7 +40,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from core.arrays import unique_rows
+from core.arrays import cross3, unique_rows
 from core.errors import ConfigError, MeshError
 from geometry.cutting import Bodies, Crack, body_mask, lex_less, section_meets_region, signed_distance
 from geometry.particles import KIND_PHYSICAL, KIND_SUBDIVIDED, ParticleSet
@@ -224,11 +224,11 @@ def coplanar_overlap(ta: np.ndarray, tb: np.ndarray, rel_tol: float = 1e-9) -> n
     Separating-axis test in the plane of ta over the six edge normals; an overlap shorter than
     rel_tol times the longest edge counts as touching.
     """
-    n = np.cross(ta[:, 1] - ta[:, 0], ta[:, 2] - ta[:, 0])
+    n = cross3(ta[:, 1] - ta[:, 0], ta[:, 2] - ta[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     u = ta[:, 1] - ta[:, 0]
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    w = np.cross(n, u)
+    w = cross3(n, u)
     o = ta[:, 0]
     pa = np.stack([np.einsum("mij,mj->mi", ta - o[:, None], u), np.einsum("mij,mj->mi", ta - o[:, None], w)], -1)
     pb = np.stack([np.einsum("mij,mj->mi", tb - o[:, None], u), np.einsum("mij,mj->mi", tb - o[:, None], w)], -1)
@@ -251,9 +251,9 @@ def coplanar_face_pairs(
     with opposite normals and overlap with positive area. Returns (fa, fb, found) each (M,)."""
     fa = face_points(va)  # (M, 4, 3, 3)
     fb = face_points(vb)
-    na = np.cross(fa[:, :, 1] - fa[:, :, 0], fa[:, :, 2] - fa[:, :, 0])
+    na = cross3(fa[:, :, 1] - fa[:, :, 0], fa[:, :, 2] - fa[:, :, 0])
     na /= np.linalg.norm(na, axis=2, keepdims=True)
-    nb = np.cross(fb[:, :, 1] - fb[:, :, 0], fb[:, :, 2] - fb[:, :, 0])
+    nb = cross3(fb[:, :, 1] - fb[:, :, 0], fb[:, :, 2] - fb[:, :, 0])
     nb /= np.linalg.norm(nb, axis=2, keepdims=True)
     cos = np.einsum("mid,mjd->mij", na, nb)  # (M, 4, 4)
     scale = np.linalg.norm(va.max(1) - va.min(1), axis=1)  # (M,)

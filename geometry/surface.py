@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import cross3
 from geometry.grid_search import PointGrid, components, pairs_within
 from geometry.particles import ParticleSet
 from geometry.subdivision import coplanar_face_pairs, face_points
@@ -70,7 +71,7 @@ def _cancelled_extra_faces(ps: ParticleSet, sel: np.ndarray) -> np.ndarray:
     m = len(na)
     nc, comp = components(len(nodes), inv[:m], inv[m:])
     tri = ps.rest_verts[nodes // 4][np.arange(len(nodes))[:, None], TET_FACES[nodes % 4]]  # (K, 3, 3)
-    varea = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    varea = 0.5 * cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     total = np.bincount(comp, weights=np.linalg.norm(varea, axis=1), minlength=nc)
     net = np.stack([np.bincount(comp, weights=varea[:, a], minlength=nc) for a in range(3)], 1)
     balanced = np.linalg.norm(net, axis=1) <= BALANCE_REL * total
@@ -195,7 +196,7 @@ def enclosed_volumes(mesh: SurfaceMesh) -> np.ndarray:
     ref = np.stack([np.bincount(mesh.vert_label, weights=mesh.verts[:, a], minlength=n) for a in range(3)], 1)
     ref /= cnt[:, None]
     v = mesh.verts[mesh.faces] - ref[mesh.face_label][:, None, :]
-    six = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2]))
+    six = np.einsum("ij,ij->i", v[:, 0], cross3(v[:, 1], v[:, 2]))
     return np.bincount(mesh.face_label, weights=six, minlength=n) / 6.0
 
 
@@ -207,7 +208,7 @@ class RestSurface:
     def __init__(self, surface_tris: np.ndarray) -> None:
         self.tris = np.asarray(surface_tris, dtype=np.float64).reshape(-1, 3, 3)  # (T, 3, 3) m
         self.centre = self.tris.mean(1)  # (T, 3) m
-        n = np.cross(self.tris[:, 1] - self.tris[:, 0], self.tris[:, 2] - self.tris[:, 0])
+        n = cross3(self.tris[:, 1] - self.tris[:, 0], self.tris[:, 2] - self.tris[:, 0])
         self.area2 = np.linalg.norm(n, axis=1)  # (T,) m^2: twice each triangle's area
         self.normal = n / np.maximum(self.area2, 1e-300)[:, None]  # (T, 3) -: unit normals
         corner = np.linalg.norm(self.tris - self.centre[:, None, :], axis=2)
@@ -222,7 +223,7 @@ class RestSurface:
         if len(tris) == 0 or len(self.tris) == 0:
             return out
         qc = tris.mean(1)
-        qn = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+        qn = cross3(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
         qn /= np.maximum(np.linalg.norm(qn, axis=1, keepdims=True), 1e-300)
         if self._grid is None or self._grid.cell < self.reach + tol:
             self._grid = PointGrid(self.centre, self.reach + tol)
@@ -235,9 +236,9 @@ class RestSurface:
         near_plane = np.abs(np.einsum("ij,ij->i", p - a, n)) <= tol
         same_way = np.einsum("ij,ij->i", qn[q], n) > np.cos(np.radians(25.0))
         # barycentric coordinates of p in (a, b, c), by sub-areas along n
-        wa = np.einsum("ij,ij->i", np.cross(c - b, p - b), n)
-        wb = np.einsum("ij,ij->i", np.cross(a - c, p - c), n)
-        wc = np.einsum("ij,ij->i", np.cross(b - a, p - a), n)
+        wa = np.einsum("ij,ij->i", cross3(c - b, p - b), n)
+        wb = np.einsum("ij,ij->i", cross3(a - c, p - c), n)
+        wc = np.einsum("ij,ij->i", cross3(b - a, p - a), n)
         slack = -tol * np.sqrt(self.area2[t])
         inside = (wa >= slack) & (wb >= slack) & (wc >= slack)
         ok = near_plane & same_way & inside

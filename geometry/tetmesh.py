@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.arrays import unique_rows
+from core.arrays import cross3, unique_rows
 from core.errors import MeshError
 
 TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -22,14 +22,14 @@ def signed_volumes(points: np.ndarray) -> np.ndarray:
     a = points[:, 1] - points[:, 0]
     b = points[:, 2] - points[:, 0]
     c = points[:, 3] - points[:, 0]
-    return np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    return np.einsum("ij,ij->i", a, cross3(b, c)) / 6.0
 
 
 def face_areas_normals(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Areas (T, 4) m^2 and unit normals (T, 4, 3) of the face opposite each vertex of tets given as
     (T, 4, 3) vertex coordinates (outward for positively oriented tets, TET_FACES)."""
     faces = points[:, TET_FACES]  # (T, 4, 3, 3): face i is opposite vertex i
-    cross = np.cross(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0])
+    cross = cross3(faces[:, :, 1] - faces[:, :, 0], faces[:, :, 2] - faces[:, :, 0])
     twice = np.linalg.norm(cross, axis=2)
     return 0.5 * twice, cross / np.maximum(twice, 1e-300)[..., None]
 
@@ -160,9 +160,9 @@ def quality_report(mesh: TetMesh) -> dict:
     # circumradius from the standard formula |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V)
     a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
     num = (
-        (a * a).sum(1)[:, None] * np.cross(b, c)
-        + (b * b).sum(1)[:, None] * np.cross(c, a)
-        + (c * c).sum(1)[:, None] * np.cross(a, b)
+        (a * a).sum(1)[:, None] * cross3(b, c)
+        + (b * b).sum(1)[:, None] * cross3(c, a)
+        + (c * c).sum(1)[:, None] * cross3(a, b)
     )
     circum = np.linalg.norm(num, axis=1) / np.maximum(12.0 * np.abs(vol), 1e-300)
     ratio = 3.0 * inradius / circum

@@ -28,7 +28,7 @@ import itertools
 
 import numpy as np
 
-from core.arrays import group_indices
+from core.arrays import cross3, group_indices
 from core.errors import ConfigError
 from geometry.boundary import DEFAULT_GROUP_SIZE, area_weights, build_boundary_particles
 from geometry.particles import ParticleSet
@@ -260,7 +260,7 @@ def split_body(
             particles.rest_verts[sel], particles.mass[sel], source=f"fragment {c} of body {body_id}"
         )
         x_c = rot @ (mp.com - com_p) + x_p
-        v_c = v_p + np.cross(w_p, x_c - x_p)
+        v_c = v_p + cross3(w_p, x_c - x_p)
         sph = slice(sphere_cut[c], sphere_cut[c + 1])
         static_c = static if static_labels is None else bool(held[uniq[c]])
         specs.append(

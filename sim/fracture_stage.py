@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from core.arrays import cross3
 from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
 from sim.struck_surface import SurfaceRows, surface_frame, surface_radius_at
@@ -107,7 +108,7 @@ def _world_motion(world, body: int, x_ref: np.ndarray, state=None) -> tuple[np.n
     st = world.rigid.body_state() if state is None else state
     rot = quat_to_matrix(st.q[body])
     r = (np.asarray(x_ref) - world.rigid.body_ref_com(body)) @ rot.T
-    return st.x[body] + r, st.v[body] + np.cross(st.w[body], r)
+    return st.x[body] + r, st.v[body] + cross3(st.w[body], r)
 
 
 def _local_radius(world, body: int, point_world: np.ndarray, inward: np.ndarray, state, fit: bool = True) -> float:
@@ -142,7 +143,7 @@ def _contact_mass(world, body: int, point_world: np.ndarray, normal_world: np.nd
 
     m = world.rigid.body_mass(body)
     rot = quat_to_matrix(st.q[body])
-    rn = np.cross(np.asarray(point_world, dtype=np.float64) - st.x[body], normal_world)
+    rn = cross3(np.asarray(point_world, dtype=np.float64) - st.x[body], normal_world)
     inertia_w = rot @ world.rigid.body_inertia(body) @ rot.T
     return 1.0 / (1.0 / m + float(rn @ np.linalg.solve(inertia_w, rn)))
 

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.arrays import cross3
+
 
 def cross_section(world, striker: int, normal: np.ndarray, state) -> float:
     """m: the striker's half-width perpendicular to `normal`: the largest distance from its COM line
@@ -83,7 +85,7 @@ def perforate(world, body: int, info, impact: dict, record: dict, debris_from: i
     v0, w0 = np.asarray(impact["struck_v"], dtype=np.float64), np.asarray(impact["struck_w"], dtype=np.float64)
 
     def field(x):
-        return v0 + np.cross(w0, x - parts["com"])
+        return v0 + cross3(w0, x - parts["com"])
 
     rel = parts["debris_x"] - st.x[other]
     swept = np.linalg.norm(rel - np.outer(rel @ n, n), axis=1) <= half

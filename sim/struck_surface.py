@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from core.arrays import unique_rows
+from core.arrays import cross3, unique_rows
 from geometry.tetmesh import TET_FACES
 from sph.contact import surface_radius
 
@@ -38,7 +38,7 @@ def _facing_faces(ps, rows: np.ndarray, point: np.ndarray, normal: np.ndarray):
     v = ps.rest_verts[rows[tet]] - point  # (F,4,3) m: relative to the point (a scene far from 0 keeps its bits)
     tri = np.take_along_axis(v, TET_FACES[face][:, :, None], axis=1)  # (F,3,3)
     cen = tri.mean(1)
-    an = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted face normals
+    an = 0.5 * cross3(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # area-weighted face normals
     opposite = v[np.arange(len(face)), face]
     flip = np.einsum("fi,fi->f", an, opposite - cen) > 0.0  # outward: away from the opposite vertex
     an[flip] *= -1.0

@@ -1,7 +1,6 @@
 """The steps of the paper's Algorithm 1 (Sect. 4.2, Fig. 2), each named after what the paper calls
-it; `sph.cracks.analyse_impact` runs them in order. The module docstring of sph/cracks.py explains
-each step, the equations and the documented departures from the paper. Host numpy, float64,
-vectorised over the analysed neighbourhood (tens to a few hundred particles).
+it; `sph.cracks.analyse_impact` runs them in order; sph/cracks.py's module docstring explains each step,
+the equations and the documented departures from the paper. Host numpy, float64, vectorised (10-500 rows).
 
     neighbourhood      lines 1-6   G_P of the particle nearest to P, the analysed set N_p, the wall under P
     wall_field         line 7      which contact field the struck wall carries (half-space, plate, beam)
@@ -28,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import cross3
 from core.errors import ConfigError
 from geometry.cutting import Crack, ShatterField
 from geometry.particles import tet_edge
@@ -53,7 +53,7 @@ def reference_direction(GP: np.ndarray, n: np.ndarray, reference: np.ndarray | N
         helper = axes[int(np.argmin(np.abs(n)))]  # least aligned with n (argmin: lowest index on ties)
         t1 = helper - np.dot(helper, n) * n
         t1 /= np.linalg.norm(t1)
-        t2 = np.cross(n, t1)
+        t2 = cross3(n, t1)
         T = np.stack([t1, t2])
         G2 = GP @ GP
         block = T @ G2 @ T.T  # in-plane section of the support: |G r|^2 = r^T G^2 r
@@ -104,7 +104,7 @@ def neighbourhood(x: np.ndarray, volume: np.ndarray, G: np.ndarray, P: np.ndarra
     qP = np.linalg.norm(d[cand] @ GP.T, axis=1)
     members = cand[qP < 1.0]
     e1 = reference_direction(GP, n, reference)
-    frame = np.stack([e1, np.cross(n, e1), n])
+    frame = np.stack([e1, cross3(n, e1), n])
     V_near = float(volume[nearest])
     r_near = float(np.cbrt(3.0 * V_near / (4.0 * math.pi)))
     depth_all = d @ n
@@ -331,7 +331,7 @@ def rankine_test(ms: MemberState, gr: Groups, T1: np.ndarray, n: np.ndarray, N: 
     for k in range(N):  # N groups (a handful): sph.eigen as the conventions ask
         vals, vecs = sym_eig3_np(T1[k])
         nk = cleavage.normal if opens_on_plane(across_mean[k], vals[0], cleavage, sigma_t) else vecs[:, 0]
-        t_k = np.cross(n, gr.bisector[k])
+        t_k = cross3(n, gr.bisector[k])
         ref = float(np.dot(nk, t_k))
         if abs(ref) < 1e-12:
             ref = float(np.dot(nk, gr.bisector[k]))

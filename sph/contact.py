@@ -90,6 +90,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from core.arrays import cross3
 from core.errors import ConfigError
 
 HERTZ_DURATION_CONST = 0.8 * math.gamma(0.4) * math.gamma(0.5) / math.gamma(0.9)  # 2.94325: t = c d_max / v
@@ -367,7 +368,7 @@ def frame_from_normal(n: np.ndarray, e1: np.ndarray) -> np.ndarray:
     n = n / np.linalg.norm(n)
     t = np.asarray(e1, dtype=np.float64) - np.dot(e1, n) * n
     t = t / np.linalg.norm(t)
-    return np.stack([t, np.cross(n, t), n])
+    return np.stack([t, cross3(n, t), n])
 
 
 __all__ = [
@@ -407,9 +408,9 @@ def surface_radius(points: np.ndarray, point: np.ndarray, inward: np.ndarray, of
     if len(p) < 4:
         return math.inf
     n = np.asarray(inward, dtype=np.float64) / float(np.linalg.norm(inward))
-    t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 = cross3(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
     t1 /= np.linalg.norm(t1)
-    t2 = np.cross(n, t1)
+    t2 = cross3(n, t1)
     x, y, z = p @ t1, p @ t2, p @ n
     A = np.stack([0.5 * np.einsum("ij,ij->i", p, p), x, y, np.ones_like(x)], axis=1)
     if np.linalg.matrix_rank(A[:, 1:]) < 3:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from core.arrays import cross3
 from core.errors import ConfigError
 from geometry.cutting import Crack, in_region, signed_distance
 
@@ -69,7 +70,7 @@ def material_crossings(
     helper = np.eye(3)[int(np.argmin(np.abs(crack.normal)))]
     a1 = helper - np.dot(helper, crack.normal) * crack.normal
     a1 /= np.linalg.norm(a1)
-    a2 = np.cross(crack.normal, a1)
+    a2 = cross3(crack.normal, a1)
     ang = np.mod(np.arctan2(q @ a2, q @ a1), 2.0 * math.pi)
     sec = np.minimum((ang / (2.0 * math.pi / directions)).astype(np.int64), directions - 1)
     order = np.lexsort((idx, r, sec))  # per sector: nearest first, ties by index

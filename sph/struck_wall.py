@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.arrays import cross3
 from geometry.particles import tet_edge
 from sph.structure import Beam
 
@@ -93,12 +94,12 @@ def struck_wall(d: np.ndarray, depth: np.ndarray, volume: np.ndarray, n: np.ndar
     helper = np.eye(3)[int(np.argmin(np.abs(n)))]
     t1 = helper - np.dot(helper, n) * n
     t1 /= np.linalg.norm(t1)
-    T = np.stack([t1, np.cross(n, t1)])
+    T = np.stack([t1, cross3(n, t1)])
     w, vec = np.linalg.eigh(T @ cov @ T.T)
     a = T.T @ vec[:, 1]  # largest spread: the long axis
     k = int(np.argmax(np.abs(a) - 1e-12 * np.arange(3)))
     a = -a if a[k] < 0.0 else a
-    frame = np.stack([a, np.cross(n, a), n])
+    frame = np.stack([a, cross3(n, a), n])
     e = tet_edge(v)
     length = float(np.ptp(q @ a)) + float(e.mean())
     width = float(np.ptp(q @ frame[1])) + float(e.mean())

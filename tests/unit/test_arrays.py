@@ -1,9 +1,10 @@
-"""core/arrays.py: unique_rows gives what np.unique(rows, axis=0) gives, bit for bit."""
+"""core/arrays.py: unique_rows gives what np.unique(rows, axis=0) gives, and cross3 what np.cross gives,
+bit for bit."""
 
 import numpy as np
 import pytest
 
-from core.arrays import group_indices, unique_rows
+from core.arrays import cross3, group_indices, unique_rows
 
 
 @pytest.mark.parametrize("shape, lo, hi", [((500, 2), 0, 40), ((800, 3), -5, 12), ((300, 2), -1, 3), ((1, 4), 7, 8)])
@@ -53,3 +54,24 @@ def test_group_indices_equals_a_mask_per_label():
     groups = group_indices(labels)
     assert [g.tolist() for g in groups] == [np.flatnonzero(labels == b).tolist() for b in np.unique(labels)]
     assert group_indices(np.zeros(0, np.int64)) == []
+
+
+@pytest.mark.parametrize("shape_a, shape_b, dtype", [
+    ((3,), (3,), np.float64), ((200, 3), (200, 3), np.float64), ((3,), (50, 3), np.float64),
+    ((20, 3), (3,), np.float64), ((7, 4, 3), (7, 4, 3), np.float32), ((9, 3), (9, 3), np.int64),
+    ((3,), (3,), np.float32)])
+def test_cross3_is_np_cross_bit_for_bit(shape_a, shape_b, dtype):
+    rng = np.random.default_rng(5)
+    # magnitudes far apart, so that a product's rounding shows in the difference
+    a = (rng.normal(size=shape_a) * 1e3).astype(dtype)
+    b = (rng.normal(size=shape_b) * 1e-3).astype(dtype) if dtype != np.int64 else rng.integers(-9, 9, shape_b)
+    want, got = np.cross(a, b), cross3(a, b)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+    lists = [1e3, 2.0 / 3.0, -3.0], [0.1, 0.0, 1.0]  # lists, as the callers pass helper axes
+    assert cross3(*lists).tobytes() == np.cross(*lists).tobytes()
+
+
+def test_cross3_refuses_other_vectors():
+    with pytest.raises(ValueError, match="cross3 takes"):
+        cross3(np.zeros(2), np.zeros(2))
