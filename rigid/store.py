@@ -28,7 +28,7 @@ class RigidStore:
         self.cap_spheres = int(ns)
         self.cap_colliders = int(ncol)
         self.cap_contacts = int(nct)
-        self.grid_size = pow2_at_least(2 * self.cap_spheres)  # hash buckets, a power of two
+        self.grid_size = pow2_at_least(2 * self.cap_spheres)  # hash buckets at most, a power of two
         fb = ti.FieldsBuilder()
 
         def dense(n, *fields):
@@ -41,7 +41,6 @@ class RigidStore:
         self._colliders(dense, ncol)
         self._contacts(dense, nct)
         # ---- scalars ----
-        self.max_reach = ti.field(float)  # () m: largest sphere radius + sweep this step
         self.sum_reach = ti.field(float)  # () m: sum of the spheres' radius + sweep this step
         self.max_half = ti.field(float)  # () m: largest half-width of a sphere's box this step
         self.grid_cell = ti.field(float)  # () m: the grid's cell edge this step
@@ -51,8 +50,7 @@ class RigidStore:
         self.pc_valid = ti.field(ti.i32)  # () flag: previous contacts usable for warm starting
         self.max_level = ti.field(ti.i32)  # () -: largest support level this step
         self.max_closing = ti.field(float)  # () m/s: fastest closing speed of a contact that took impulse
-        fb.place(self.max_reach, self.sum_reach, self.max_half, self.grid_cell, self.grid_entries, self.grid_mask,
-                 self.ct_total,
+        fb.place(self.sum_reach, self.max_half, self.grid_cell, self.grid_entries, self.grid_mask, self.ct_total,
                  self.pc_valid, self.max_level, self.max_closing)
         fb.finalize()
 
