@@ -217,6 +217,7 @@ class ParticleStore:
         self.count = 0  # rows in use (particles ever made)
         self.extra_count = 0  # rows of link_extra in use, dead ones included until compacted
         self._host = None  # (version, ParticleSet, kernel tensors) of the last download
+        self._valid = None  # (version found valid, the rows put_body wrote since: one array a put), or None
         self._body_rows = BodyRows()  # the rows take_bodies gathers per body (geometry/body_rows.py)
         self._allocate(max(MIN_CAPACITY, int(capacity), HEADROOM * len(particles)),
                        max(MIN_CAPACITY, len(particles), 4 * len(particles.extra_links)))
@@ -266,6 +267,7 @@ class ParticleStore:
         self._body_rows.reset(particles.body, particles.alive, particles.kind, particles.parent)
         self.count = n
         self._append_extra(particles.extra_links)
+        self._valid = None  # a new content: its first check passes over all of it
         self._changed(np.unique(particles.body[particles.body >= 0]))
         self.transfers.append(("reset", n))
         # what host() would download now is what was just uploaded: kept, so a start compiles no
@@ -321,6 +323,8 @@ class ParticleStore:
         self._append_extra(pairs, kill=extra_rows)
         self.transfers.append(("put_body", len(ps)))
         self._changed(np.unique(ps.body[ps.alive & (ps.body >= 0)]))
+        if self._valid is not None:
+            self._valid[1].append(global_id)
         return global_id
 
     def warm_pieces(self) -> list:
@@ -338,8 +342,9 @@ class ParticleStore:
 
     def _unchanged(self, launch) -> None:
         version, host, logged = self.version, self._host, len(self.transfers)
+        valid = None if self._valid is None else (self._valid[0], list(self._valid[1]))
         launch()
-        self.version, self._host, self.transfers[logged:] = version, host, []
+        self.version, self._host, self.transfers[logged:], self._valid = version, host, [], valid
 
     def global_ids(self, ids: np.ndarray, n_local: int) -> np.ndarray:
         """(n_local,) store id of every row of a local set taken as `ids`: the gathered rows keep
@@ -396,17 +401,24 @@ class ParticleStore:
     def first_invalid(self, device: bool = False) -> dict[str, int]:
         """Per check, the first alive particle that fails it (geometry.store_checks), or -1: on the host
         copy the store keeps while nothing changed (the build's: a first frame compiles no kernel for
-        it), else (or with `device`) by one kernel over the store."""
+        it); else by one kernel over the rows `put_body` wrote since the store was last found valid,
+        where every change since came from `put_body` (the rows no event wrote are as they were); else
+        (or with `device`) by that kernel over the whole store."""
         kept = None if device else self.kept_host()
         if kept is not None:
             first = host_first_invalid(kept, self._host[2] if self.has_kernels else None)
         else:
+            only_puts = not device and self._valid is not None and self.version - self._valid[0] == len(self._valid[1])
+            rows = np.unique(np.concatenate(self._valid[1])).astype(np.int32) if only_puts else np.zeros(1, np.int32)
             first = np.zeros(5, dtype=np.int32)
-            k_first_invalid(self.count, int(self.has_kernels), self.particle_alive, self.particle_centroid,
-                            self.particle_rest_verts, self.particle_volume, self.particle_mass,
-                            self.particle_kernel, first)
+            k_first_invalid(self.count, rows, len(rows) if only_puts else -1, int(self.has_kernels),
+                            self.particle_alive, self.particle_centroid, self.particle_rest_verts,
+                            self.particle_volume, self.particle_mass, self.particle_kernel, first)
         names = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
-        return {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
+        found = {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
+        # (version, rows written since) while the store is known valid: the next check need look at those only
+        self._valid = (self.version, []) if set(found.values()) == {-1} else None
+        return found
 
     def kept_host(self) -> ParticleSet | None:
         """`host()`'s ParticleSet where it is kept already (nothing changed since the build or the last

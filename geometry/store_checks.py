@@ -1,8 +1,9 @@
 """The particle store's validity check (geometry/particle_store.py, `ParticleStore.first_invalid`; run
 by sim/guards.py whenever fracture changed the particles): per check, the first alive particle whose
 rest data is not finite or not physical. One kernel over the store's ndarrays (compiled once for any
-capacity), and the same checks in numpy for a host copy of the store (`host_first_invalid`: a run's
-first frame checks the build's particles without compiling the kernel, 0.1 s of its start).
+capacity), over every row or over given rows (those written since the store was last found valid),
+and the same checks in numpy for a host copy of the store (`host_first_invalid`: a run's first frame
+checks the build's particles without compiling the kernel, 0.1 s of its start).
 No `from __future__ import annotations` here: Taichi reads the kernel's annotations as objects.
 """
 
@@ -18,15 +19,22 @@ def _finite(x) -> ti.i32:
 
 
 @ti.kernel
-def k_first_invalid(n: ti.i32, check_kernel: ti.i32, particle_alive: Arr, particle_centroid: Arr,
-                    particle_rest_verts: Arr, particle_volume: Arr, particle_mass: Arr, particle_kernel: Arr,
-                    first: Arr):
+def k_first_invalid(n: ti.i32, rows: Arr, n_rows: ti.i32, check_kernel: ti.i32, particle_alive: Arr,
+                    particle_centroid: Arr, particle_rest_verts: Arr, particle_volume: Arr, particle_mass: Arr,
+                    particle_kernel: Arr, first: Arr):
     """Per check (centroid, rest verts, volume, mass, kernel tensor), the first alive particle that
     fails it, or n: non-finite values, volume or mass <= 0, a kernel tensor whose symmetric part is
-    not positive definite (Sylvester: its leading minors > 0)."""
+    not positive definite (Sylvester: its leading minors > 0). Over rows[:n_rows] where n_rows >= 0,
+    else over the rows 0..n-1."""
     for c in range(5):
         first[c] = n
-    for i in range(n):
+    m = n
+    if n_rows >= 0:
+        m = n_rows
+    for r in range(m):
+        i = r
+        if n_rows >= 0:
+            i = rows[r]
         if particle_alive[i] != 0:
             bad = ti.Vector([0, 0, 0, 0, 0])
             for a in ti.static(range(3)):

@@ -140,3 +140,33 @@ def test_the_host_check_of_a_built_store_answers_as_the_kernel(bad):
     assert store.first_invalid() == store.first_invalid(device=True)
     assert list(store.first_invalid().values()).count(17) == 1
     np.testing.assert_array_equal(store.take_mass(np.array([3, 0, 400])), ps.mass[[3, 0, 400]])
+
+
+def test_after_valid_check_only_the_rows_events_wrote_are_checked(monkeypatch):
+    """Once the store was found valid, the next check looks at the rows `put_body` wrote since (the
+    others are as they were) and names a bad row among them as the whole-store kernel does; a change
+    made any other way (the version bumped by hand) sends the check over the whole store again."""
+    from geometry import particle_store
+    from geometry.particle_store import ParticleStore
+
+    ps, G = _two_blocks()
+    store = ParticleStore(ps, G)
+    ids, part, G_part, rows = store.take_bodies([1])
+    store.put_body(ids, part, G_part, rows)  # the build's host copy is gone: the kernel checks
+    passes = []
+    kernel = particle_store.k_first_invalid
+    monkeypatch.setattr(particle_store, "k_first_invalid", lambda n, rows, n_rows, *rest: (
+        passes.append(n_rows), kernel(n, rows, n_rows, *rest))[1])
+    assert set(store.first_invalid().values()) == {-1} and passes == [-1]  # not known valid yet: every row
+    ids, part, G_part, rows = store.take_bodies([0])
+    crack = Crack(point=[0.0, 0.0, 0.0], normal=[1.0, 0.2, 0.0], r_outer=0.1)
+    cut, _ = apply_cracks(part, [crack], mode="subdivision", shatter=False, bodies=[0])
+    child = len(part) + 3
+    cut.mass[child] = -1.0  # a bad child written by the event
+    global_id = store.put_body(ids, cut, np.concatenate([G_part, G_part[cut.parent[len(part):]]]), rows)
+    found = store.first_invalid()
+    assert passes[-1] == len(np.unique(global_id)) < store.count  # only the rows this event wrote
+    assert found["particle_mass"] == int(global_id[child]) and found == store.first_invalid(device=True)
+    store.particle_mass[int(global_id[child])] = 1.0  # mended by hand, as the guard test writes: version bumped
+    store.version += 1
+    assert set(store.first_invalid().values()) == {-1} and passes[-1] == -1
