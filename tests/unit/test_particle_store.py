@@ -158,6 +158,7 @@ def test_after_valid_check_only_the_rows_events_wrote_are_checked(monkeypatch):
     monkeypatch.setattr(particle_store, "k_first_invalid", lambda n, rows, n_rows, *rest: (
         passes.append(n_rows), kernel(n, rows, n_rows, *rest))[1])
     assert set(store.first_invalid().values()) == {-1} and passes == [-1]  # not known valid yet: every row
+    assert set(store.first_invalid().values()) == {-1} and passes == [-1, 0]  # nothing written since: no row
     ids, part, G_part, rows = store.take_bodies([0])
     crack = Crack(point=[0.0, 0.0, 0.0], normal=[1.0, 0.2, 0.0], r_outer=0.1)
     cut, _ = apply_cracks(part, [crack], mode="subdivision", shatter=False, bodies=[0])
