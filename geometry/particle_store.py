@@ -409,8 +409,8 @@ class ParticleStore:
             first = host_first_invalid(kept, self._host[2] if self.has_kernels else None)
         else:
             only_puts = not device and self._valid is not None and self.version - self._valid[0] == len(self._valid[1])
-            written = np.concatenate([np.zeros(0, np.int64), *self._valid[1]]) if only_puts else np.zeros(1)
-            rows = np.unique(written).astype(np.int32)
+            written = self._valid[1] if only_puts else []
+            rows = np.unique(np.concatenate([np.zeros(0, np.int64), *written])).astype(np.int32)
             first = np.zeros(5, dtype=np.int32)
             k_first_invalid(self.count, rows, len(rows) if only_puts else -1, int(self.has_kernels),
                             self.particle_alive, self.particle_centroid, self.particle_rest_verts,

@@ -111,13 +111,16 @@ def box_cells(s: ti.template(), i, margin, inv_cell):
 def choose_cell(s: ti.template(), ns: ti.i32, margin: float):
     """s.grid_cell: CELL_PER_MEAN_HALF_WIDTH mean half-widths, or, where the boxes would then need
     more entries than the grid holds (a few spheres far larger than the rest), 2.01 of the largest
-    half-widths, with which no box covers more than 2 cells a side."""
+    half-widths, with which no box covers more than 2 cells a side. The boxes' cells at the first
+    choice are kept (bp_cell_lo, bp_cell_hi); fill_grid finds them again only after a fallback."""
     mean = s.sum_reach[None] / ti.max(ns, 1) + 0.5 * margin
     s.grid_cell[None] = CELL_PER_MEAN_HALF_WIDTH * mean
     s.grid_entries[None] = 0
     s.max_half[None] = 0.0
     for i in range(ns):
         lo, hi = box_cells(s, i, margin, 1.0 / s.grid_cell[None])
+        s.bp_cell_lo[i] = lo
+        s.bp_cell_hi[i] = hi
         d = hi - lo + 1
         ti.atomic_add(s.grid_entries[None], ti.cast(d[0], ti.i64) * d[1] * d[2])
         ti.atomic_max(s.max_half[None], half_width(s, i, margin))
@@ -142,9 +145,11 @@ def fill_grid(s: ti.template(), ns: ti.i32, margin: float):
         s.grid_top[h] = -1
     choose_cell(s, ns, margin)
     for i in range(ns):
-        lo, hi = box_cells(s, i, margin, 1.0 / s.grid_cell[None])
-        s.bp_cell_lo[i] = lo
-        s.bp_cell_hi[i] = hi
+        lo, hi = s.bp_cell_lo[i], s.bp_cell_hi[i]  # choose_cell's, at the first choice of cell edge
+        if s.grid_entries[None] > ENTRIES_PER_SPHERE * s.cap_spheres:  # the cell fell back: the boxes again
+            lo, hi = box_cells(s, i, margin, 1.0 / s.grid_cell[None])
+            s.bp_cell_lo[i] = lo
+            s.bp_cell_hi[i] = hi
         for cz in range(lo[2], hi[2] + 1):
             for cy in range(lo[1], hi[1] + 1):
                 for cx in range(lo[0], hi[0] + 1):
