@@ -8,13 +8,18 @@ run leaves each finished frame readable and never a half-written PNG, MP4 or GIF
     pixel (the last column/row repeated);
   * `GifWriter`: frames are quantised to a 256-colour palette as they arrive (about a third of the
     RGB size in memory) and written with Pillow on `close()`, looping forever.
-`make_writer(fmt, ...)` picks one by name; an unknown name is a ConfigError.
+`make_writer(fmt, ...)` picks one by name; an unknown name is a ConfigError. `WritingThread` hands
+frames to writers on a thread of its own, in order, while the caller draws the next frame (the drawing
+process, render/draw_process.py: Pillow's PNG encoder and the pipe to ffmpeg release the GIL).
 Frames are (H, W, 3) uint8 arrays, row 0 at the top (what the renderers return).
 """
 
 from __future__ import annotations
 
 import os
+import queue
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -231,3 +236,49 @@ def make_writer(fmt: str, out_dir: str | Path, fps: float = 30.0, stem: str = "v
     if key == "none":
         return None
     raise ConfigError("--video", fmt, "mp4, gif, png or none")
+
+
+class WritingThread:
+    """Frames written by `writers` on one thread of its own, in the order given, while the caller draws
+    the next: `submit(img)` returns once fewer than `ahead` frames wait before it. An error a writer
+    raises stops the writing (no later frame is written) and is raised again by the next `submit` or by
+    `close`, which waits for every frame submitted before it. `first_written_unix`: when the first frame
+    was written by every writer (time.time()), else None."""
+
+    def __init__(self, writers, ahead: int = 1) -> None:
+        self.writers = [w for w in writers if w is not None]
+        self.first_written_unix: float | None = None
+        self._queue: queue.Queue = queue.Queue(maxsize=max(1, int(ahead)))
+        self._error: BaseException | None = None  # raised once, by the caller's thread
+        self._failed = False  # a writer raised: nothing more is written
+        self._thread = threading.Thread(target=self._run, name="frame-writer", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while (img := self._queue.get()) is not None:
+            if self._failed:
+                continue  # after an error nothing more is written: the frames left are dropped
+            try:
+                for w in self.writers:
+                    w.write(img)
+                if self.first_written_unix is None:
+                    self.first_written_unix = time.time()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread, raised there
+                self._failed, self._error = True, exc
+
+    def submit(self, img: np.ndarray) -> None:
+        self._raise()
+        self._queue.put(img)
+
+    def close(self) -> None:
+        """Wait for the frames submitted, then raise a writer's error if one was raised (the writers
+        themselves are the caller's to close)."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+        self._raise()
+
+    def _raise(self) -> None:
+        if self._error is not None:
+            exc, self._error = self._error, None
+            raise exc

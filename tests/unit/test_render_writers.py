@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from core.errors import ConfigError
-from render.writers import GifWriter, Mp4Writer, PngSequenceWriter, make_writer, write_png
+from render.writers import GifWriter, Mp4Writer, PngSequenceWriter, WritingThread, make_writer, write_png
 
 
 def _frames(n: int, w: int, h: int) -> list[np.ndarray]:
@@ -24,6 +24,22 @@ def _frames(n: int, w: int, h: int) -> list[np.ndarray]:
 
 def _no_temporaries(folder) -> bool:
     return not any(p.name.startswith(".") for p in folder.iterdir())
+
+
+def _read_mp4(path) -> tuple[dict, tuple, list]:
+    """(metadata, (W, H), frames) of an MP4, read back with imageio's ffmpeg backend."""
+    import imageio_ffmpeg
+
+    with warnings.catch_warnings():  # imageio-ffmpeg's reader leaves its pipes to the garbage collector
+        warnings.simplefilter("ignore", ResourceWarning)
+        gen = imageio_ffmpeg.read_frames(str(path))
+        meta = next(gen)
+        size = tuple(meta["size"])  # (W, H)
+        got = [np.frombuffer(b, np.uint8).reshape(size[1], size[0], 3) for b in gen]
+        gen.close()
+        del gen
+        gc.collect()
+    return meta, size, got
 
 
 def test_png_sequence(tmp_path):
@@ -54,8 +70,6 @@ def test_png_interrupted_run_keeps_finished_frames(tmp_path):
 @pytest.mark.parametrize("w,h", [(64, 48), (65, 47)])
 def test_mp4_reads_back(tmp_path, w, h):
     """H.264 MP4 (yuv420p): frame count, size (odd sizes padded to even) and content survive a read-back."""
-    import imageio_ffmpeg
-
     frames = _frames(6, w, h)
     path = tmp_path / "run.mp4"
     with Mp4Writer(path, fps=10) as wr:
@@ -63,15 +77,7 @@ def test_mp4_reads_back(tmp_path, w, h):
             wr.write(f)
         assert not path.exists()  # renamed into place only on close
     assert path.exists() and _no_temporaries(tmp_path)
-    with warnings.catch_warnings():  # imageio-ffmpeg's reader leaves its pipes to the garbage collector
-        warnings.simplefilter("ignore", ResourceWarning)
-        gen = imageio_ffmpeg.read_frames(str(path))  # imageio's ffmpeg backend
-        meta = next(gen)
-        size = tuple(meta["size"])  # (W, H)
-        got = [np.frombuffer(b, np.uint8).reshape(size[1], size[0], 3) for b in gen]
-        gen.close()
-        del gen
-        gc.collect()
+    meta, size, got = _read_mp4(path)
     assert meta["codec"] == "h264" and len(got) == len(frames)
     assert size == (w + (w & 1), h + (h & 1))
     for f, g in zip(frames, got):  # lossy, but the moving square is where it should be
@@ -141,3 +147,43 @@ def test_outputs_get_a_plain_files_mode_not_the_temporary_names(tmp_path):
     for name in ("f.png", "stats.json"):
         assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644, name
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "stats.json"]
+
+
+def test_writing_thread_writes_every_frame_in_order_and_close_waits(tmp_path):
+    """The drawing process's writer thread: the frames read back are the ones submitted, in order, each
+    in the PNG sequence and the MP4, once close() has returned (it waits for the last)."""
+    import imageio.v3 as iio
+
+    frames = _frames(6, 48, 32)
+    png, mp4 = PngSequenceWriter(tmp_path / "frames"), Mp4Writer(tmp_path / "v.mp4", fps=10)
+    writing = WritingThread([png, mp4, None], ahead=1)
+    for img in frames:
+        writing.submit(img)
+    writing.close()
+    mp4.close()
+    assert writing.first_written_unix is not None
+    assert [p.name for p in sorted((tmp_path / "frames").iterdir())] == [f"frame_{k:05d}.png" for k in range(6)]
+    for k, img in enumerate(frames):
+        assert np.array_equal(iio.imread(tmp_path / "frames" / f"frame_{k:05d}.png"), img)
+    assert len(_read_mp4(tmp_path / "v.mp4")[2]) == 6
+
+
+def test_writing_thread_raises_a_writers_error_and_writes_nothing_after_it(tmp_path):
+    class Failing:
+        def __init__(self) -> None:
+            self.written = 0
+
+        def write(self, img) -> None:
+            if self.written == 2:
+                raise OSError("disk full")
+            self.written += 1
+
+    failing = Failing()
+    writing = WritingThread([failing], ahead=1)
+    with pytest.raises(OSError, match="disk full"):
+        for img in _frames(8, 16, 16):  # raised by a later submit, once the thread has met it
+            writing.submit(img)
+        writing.close()
+    writing.close()  # raised once: closing again waits for nothing and raises nothing
+    assert failing.written == 2
+    assert writing.first_written_unix is not None
