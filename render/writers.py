@@ -242,8 +242,8 @@ class WritingThread:
     """Frames written by `writers` on one thread of its own, in the order given, while the caller draws
     the next: `submit(img)` returns once fewer than `ahead` frames wait before it. An error a writer
     raises stops the writing (no later frame is written) and is raised again by the next `submit` or by
-    `close`, which waits for every frame submitted before it. `first_written_unix`: when the first frame
-    was written by every writer (time.time()), else None."""
+    `close`, which waits for every frame submitted before it. `first_written_unix`: when the first writer
+    (the drawing process's PNG sequence) wrote the first frame (time.time()), else None."""
 
     def __init__(self, writers, ahead: int = 1) -> None:
         self.writers = [w for w in writers if w is not None]
@@ -259,10 +259,10 @@ class WritingThread:
             if self._failed:
                 continue  # after an error nothing more is written: the frames left are dropped
             try:
-                for w in self.writers:
+                for k, w in enumerate(self.writers):
                     w.write(img)
-                if self.first_written_unix is None:
-                    self.first_written_unix = time.time()
+                    if k == 0 and self.first_written_unix is None:
+                        self.first_written_unix = time.time()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread, raised there
                 self._failed, self._error = True, exc
 
