@@ -7,11 +7,12 @@ full rigid step's (rigid.step.warm_pieces: 1.9 s of frontend and JIT at a warm s
 contact can come, frames step the bodies alone, rigid/free_flight.py), and those that only events and
 debris launch (sim.fracture_stage.warm_pieces), with the libraries an event imports (0.9-1.2 s,
 glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
-end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs them
-in the time the simulation waits for it (`run_one` is its idle work: the pot's falling frames take
-8 ms to step and 45 ms to draw), none before the first frame, so that it is drawn sooner, provided the
-first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact gives a lower bound on
-its time; a ball launched at a pane: all before the first frame, as at the build). Those the idle
+end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs START_WARM_S of them
+before the first frame, the rigid step's first (its frontends and first launches are the heaviest
+pieces, 20-120 ms each), and the rest in the time the simulation waits for the drawing process
+(`run_one` is its idle work: the pot's falling frames take 8 ms to step and 40 ms to draw), provided
+the first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact gives a lower bound
+on its time; a ball launched at a pane: all before the first frame, as at the build). Those the idle
 time has not run by the time the frames left before a contact are fewer than them run in those
 frames, spread by time: each frame takes its share of what is left (the pieces left of each kind, the
 rigid step's and the events', times that kind's mean time so far, at least PIECE_FLOOR_S, over the
@@ -20,6 +21,11 @@ frames left), so that no frame of the fall stalls on several heavy pieces at onc
 kinds the rigid step's pieces, 90-330 ms, priced the events' 5-110 ms ones and the pot's first fall
 frames ran two or three heavy pieces each: 300-570 ms, now 235-378 ms, session 38). Without idle
 time they all run before the first frame.
+The budget before the first frame (session 42): with none, the first frame came about 1.3 s after
+the launch and the pot's and the Tai Chi disc's falling frames took 70-190 ms, each with a heavy piece
+or its share of 1.5 s of pieces, and the drawing process sat idle at the start; with 1 s of pieces
+there (the start, 2.0 s, stays under issue 16's 3 s), those frames take 30-80 ms and the whole run is
+no longer (the pieces overlap the drawing process's own start).
 A fracture event runs any that are left first.
 """
 
@@ -35,6 +41,7 @@ SAFETY_FRAMES = 2  # frames kept between the last piece and the earliest possibl
 # and a mean of those alone leaves the heavy ones (scipy's packages, 40-110 ms; first launches, 10-60
 # ms) piled up for the last frames
 PIECE_FLOOR_S = 0.03
+START_WARM_S = 1.0  # s: the pieces run before the first frame where idle time could take them (module doc)
 
 
 def warm_pieces(world) -> tuple[list, int]:
@@ -93,21 +100,23 @@ class WarmUp:
 
     def before_frame(self) -> None:
         """At the start of a frame: all that are left, unless idle time runs them and a contact cannot
-        come before SAFETY_FRAMES + 1 frames; then none at the first frame, and later, once the frames
-        left are fewer than the pieces, this frame's share (`run_share`): the last frame before a
-        contact could come runs all that are left."""
+        come before SAFETY_FRAMES + 1 frames; then START_WARM_S of them at the first frame, and later,
+        once the frames left are fewer than the pieces, this frame's share (`run_share`): the last
+        frame before a contact could come runs all that are left."""
         if not self.pieces:
             return
         w = self.world
         frames = self.frames_to_first_contact() - SAFETY_FRAMES  # this one included
-        n = len(self.pieces)
+        t0 = time.perf_counter()
         if frames <= 1 or not self.idle:  # a contact could come at once, or no idle time to use: all now
-            t0 = time.perf_counter()
             self.run_all()
-            if w.frame == 0:  # before the first frame: part of the build, as where the World ran them
-                w.build_seconds += time.perf_counter() - t0
-        elif w.frame > 0 and frames <= n:  # the idle time did not do them all: the rest in the frames left
+        elif w.frame == 0:
+            if START_WARM_S > 0.0:
+                self.run_for(START_WARM_S)
+        elif frames <= len(self.pieces):  # the idle time did not do them all: the rest in the frames left
             self.run_share(frames)
+        if w.frame == 0:  # before the first frame: part of the build, as where the World ran them
+            w.build_seconds += time.perf_counter() - t0
 
     def free_frame(self, step_s: float) -> bool:
         """Whether this frame steps the bodies alone (rigid/free_flight.py): while the full step's
@@ -119,14 +128,18 @@ class WarmUp:
 
     def run_share(self, frames: int) -> None:
         """This frame's share of the pieces left, `frames` frames (this one included) before they
-        must all have run: at least one, then more while the share's time is not used up."""
+        must all have run (`run_for`, priced by the means before it)."""
         means = self._means()
         step_left = max(self.step_pieces - self.ran, 0)
         left = means[0] * step_left + means[1] * (len(self.pieces) - step_left)  # s: what is left, estimated
-        share = left / frames
+        self.run_for(left / frames, means)
+
+    def run_for(self, budget: float, means: tuple[float, float] | None = None) -> None:
+        """Pieces in order, at least one, then more while the next one's expected time (`means`, else
+        the means of the pieces run so far) still fits in `budget` (s) with those run here."""
         t0 = self.clock()
         self.run_one()
-        while self.pieces and self.clock() - t0 + self._next_mean(means) <= share:
+        while self.pieces and self.clock() - t0 + self._next_mean(means or self._means()) <= budget:
             self.run_one()
 
     def frames_to_first_contact(self) -> float:
@@ -143,4 +156,4 @@ class WarmUp:
         return frames
 
 
-__all__ = ["SAFETY_FRAMES", "WarmUp", "warm_pieces"]
+__all__ = ["SAFETY_FRAMES", "START_WARM_S", "WarmUp", "warm_pieces"]

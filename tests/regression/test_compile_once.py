@@ -170,6 +170,8 @@ imminent.warm_up.before_frame()  # the ball is launched at the pane: all before 
 left_imminent = len(imminent.warm_up.pieces)
 w = World(load_scene("pot"), warm_events=False)
 w.warm_up.idle = True  # as under a drawing process: one piece in each wait for a frame
+import sim.warm_up
+sim.warm_up.START_WARM_S = 0.0  # no budget before the first frame: the spread alone (a start's budget: unit tests)
 pieces = len(w.warm_up.pieces)
 left, first_event = [], None
 event_imports = None
@@ -190,9 +192,9 @@ print(json.dumps(dict(compiled=compiled, left_imminent=left_imminent, pieces=pie
 
 def test_event_kernels_compile_in_the_idle_frames_before_the_first_contact():
     """Under a drawing process (`main.py run`), the event kernels compile while the simulation waits
-    for frames to be drawn, none before the first frame, all before the first contact could come
-    (sim/warm_up.py): the event's frame compiles and imports nothing. Where a contact is imminent
-    (glass_r3's ball), all compile before the first frame."""
+    for frames to be drawn (here with no budget before the first frame, START_WARM_S = 0: none there),
+    all before the first contact could come (sim/warm_up.py): the event's frame compiles and imports
+    nothing. Where a contact is imminent (glass_r3's ball), all compile before the first frame."""
     info = _probe(SPREAD)
     assert info["left_imminent"] == 0
     assert info["left"][0] == info["pieces"] > 0  # the first frame ran none
@@ -207,7 +209,9 @@ PILE = SPY + """
 phase = "build"
 from tests.regression.test_free_flight_frames import SPREAD
 w = World(load_scene("rigid_pile", SPREAD), warm_events=False)  # 13 frames before a contact can come
-w.warm_up.idle = True  # as under a drawing process: none before the first frame
+w.warm_up.idle = True  # as under a drawing process with no budget before the first frame: none there
+import sim.warm_up
+sim.warm_up.START_WARM_S = 0.0
 phase = "first frame"
 w.step_frame()
 free = w.rigid.free_flight.frames

@@ -10,7 +10,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from sim.warm_up import PIECE_FLOOR_S, WarmUp
+from sim.warm_up import PIECE_FLOOR_S, START_WARM_S, WarmUp
 
 
 class _Clock:
@@ -97,3 +97,40 @@ def test_the_rigid_steps_heavy_pieces_do_not_price_the_events_light_ones():
     # the rule with one mean for both kinds, for comparison: two heavy pieces in a frame
     w1, clock1, _ = _warm_up(durations, step_pieces=0)
     assert max(_spread(w1, clock1, frames)[:3]) >= 2 * 0.16
+
+
+class _World:
+    """What WarmUp.before_frame reads of a World: the frame, and where the first frame's pieces count."""
+
+    def __init__(self, frame: int) -> None:
+        self.frame, self.build_seconds = frame, 0.0
+
+
+@pytest.mark.parametrize("contact_in", [30.0, 2.0])
+def test_the_first_frame_runs_the_start_budget_of_pieces_in_order_or_all_of_them(contact_in):
+    """Frame 0 with idle time and a contact far off: pieces in order while the next one's expected time
+    fits in START_WARM_S (the rigid step's, priced by their own mean, first), the rest left for the
+    frames; with a contact as near as SAFETY_FRAMES + 1 frames, all of them."""
+    durations = [0.12, 0.08, 0.1, 0.06] * 3 + [0.03] * 30  # s: 12 rigid-step pieces, then the events'
+    w, clock, ran = _warm_up(durations, step_pieces=12)
+    w.world = _World(0)
+    w.frames_to_first_contact = lambda: contact_in
+    w.before_frame()
+    if contact_in <= 3.0:
+        assert ran == list(range(len(durations)))
+        return
+    assert ran == list(range(len(ran))) and 0 < len(ran) < len(durations)
+    # priced by their kind's mean so far: never past the budget by more than a piece, and never a
+    # piece short of it
+    assert START_WARM_S - max(durations) < clock.now <= START_WARM_S + max(durations)
+
+
+def test_no_start_budget_runs_no_piece_at_the_first_frame(monkeypatch):
+    import sim.warm_up
+
+    monkeypatch.setattr(sim.warm_up, "START_WARM_S", 0.0)
+    w, clock, ran = _warm_up([0.05] * 10)
+    w.world = _World(0)
+    w.frames_to_first_contact = lambda: 30.0
+    w.before_frame()
+    assert ran == [] and w.world.build_seconds >= 0.0
