@@ -251,7 +251,8 @@ def run(cfg: SceneConfig, opts: RunOptions, world=None, start: RunStart | None =
             frame_wall_ms.append((time.perf_counter() - t_frame) * 1e3)
             if first_frame_unix is None and drawing is None:
                 first_frame_unix = time.time()
-            bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
+            if opts.progress:  # the count is a kernel over the store once it changed (2 ms a frame in Pots)
+                bar.set_postfix(fragments=world.fragment_count(), events=len(world.events))
             bar.update(1)
             if opts.until_settled and settle.tick(world):
                 stopped = f"settled: nothing moved for {SETTLED_S:g} s"
