@@ -19,11 +19,18 @@ on a thread of the simulation process (`_Sender`), so the simulation never waits
 that is busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's
 start while the drawing process built its scene.
 
-The same calls in the same order on the same numbers give the same frames, byte for byte
-(tests/regression/test_draw_process.py). The drawing process has its own Taichi offline cache (two
-processes compiling into one cache at once can crash Taichi 1.7.4: docs/decisions.md) and ignores
-Ctrl-C (the simulation process ends it after the last frame). Its errors come back as the
-exception it raised; if it dies, the error names its exit status and the end of what it printed.
+Its Taichi runs on every core (the simulation's on `--threads`, 1 by default) at a lower priority
+(DRAWING_NICENESS): where the simulation waits for frames (the pot's fall and rest) the renderer's
+kernels get both cores, and where both processes are busy (Pots' events) the scheduler favours the
+simulation (session 42, alternated runs with the MP4: the pot 22.5 -> 25.9 frames/s steady and 8.1 ->
+7.4 s in all; Pots the same within the machine's noise). The rasteriser's images do not depend on
+the thread count (render/raster.py: keys reduced by atomic max, pixels shaded apart). The same calls
+in the same order on the same numbers give the same frames, byte for byte, whatever either process's
+thread count (tests/regression/test_draw_process.py draws them here on one thread and there on all).
+The drawing process has its own Taichi offline cache (two processes compiling into one cache at once
+can crash Taichi 1.7.4: docs/decisions.md) and ignores Ctrl-C (the simulation process ends it after
+the last frame). Its errors come back as the exception it raised; if it dies, the error names its exit
+status and the end of what it printed.
 """
 
 from __future__ import annotations
@@ -52,6 +59,7 @@ HINTS_KIND = "render"  # the project cache's folder (geometry/build_cache.py) of
 STDERR_TAIL = 2000  # characters of the drawing process's output kept in an error
 END_WAIT_S = 30.0  # s: how long a drawing process told to stop may take before it is killed
 FRAMES_AHEAD = 2  # frames the simulation may step beyond the last one drawn (its frame times stay honest)
+DRAWING_NICENESS = 5  # added to the drawing process's nice value: where both processes want a core, the simulation's
 ANSWER_WAIT_S = 600.0  # s: the longest wait for an answer (a first frame compiles the renderer, cold: ~1 min)
 COMMAND = [sys.executable, "-m", "render.draw_process"]  # the drawing process, given its socket's fd
 
@@ -164,7 +172,10 @@ class DrawingProcess:
         cache = Path(ti.lang.impl.current_cfg().offline_cache_file_path) / CACHE_SUBDIR
         hints = cache_dir(HINTS_KIND)  # the project's cache (tests use their own), None where it is off
         ggui = sys.modules.get("render.ggui")  # a Vulkan probe made here already answers for it too
-        self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=rt.threads, kind=kind, width=width,
+        from core.host_threads import host_cores
+
+        # every core, at a lower priority (module doc): its images do not depend on the thread count
+        self.send("start", dict(arch=rt.arch, precision=rt.precision, threads=host_cores(), kind=kind, width=width,
                                 height=height, out=str(out), video=video, fps=fps, stem=stem, cache=str(cache),
                                 hints=str(hints) if hints is not None else "", scene_key=scene_key,
                                 vulkan=ggui.known_vulkan_status() if ggui is not None else None))
@@ -279,6 +290,8 @@ class _Drawer:
         from render.select import make_renderer
 
         os.environ["TI_OFFLINE_CACHE_FILE_PATH"] = start["cache"]  # its own (module doc), read by ti.init
+        if hasattr(os, "nice"):
+            os.nice(DRAWING_NICENESS)  # the simulation first where both want a core (module doc)
         init_taichi(start["arch"], start["precision"], start["threads"])
         if start["vulkan"] is not None:
             from render.ggui import assume_vulkan_status

@@ -21,6 +21,8 @@ FRAMES = 8  # glass_r3: the ball breaks the pane within 6 frames and throws debr
 
 
 def test_the_drawing_process_draws_the_frames_drawn_in_process(tmp_path):
+    """The drawing process draws on every core (render/draw_process.py), this process on the test's one
+    thread: the same bytes, so the frames do not depend on the thread count either."""
     cfg = load_scene("glass_r3")
     stats = {}
     for mode, separate in (("process", True), ("here", False)):
