@@ -7,12 +7,13 @@ full rigid step's (rigid.step.warm_pieces: 1.9 s of frontend and JIT at a warm s
 contact can come, frames step the bodies alone, rigid/free_flight.py), and those that only events and
 debris launch (sim.fracture_stage.warm_pieces), with the libraries an event imports (0.9-1.2 s,
 glass_r3, docs/decisions.md session 32). A World built with warm_events=True runs them all at the
-end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs START_WARM_S of them
-before the first frame, the rigid step's first (its frontends and first launches are the heaviest
-pieces, 20-120 ms each), and the rest in the time the simulation waits for the drawing process
-(`run_one` is its idle work: the pot's falling frames take 8 ms to step and 40 ms to draw), provided
-the first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact gives a lower bound
-on its time; a ball launched at a pane: all before the first frame, as at the build). Those the idle
+end of its build. One built with warm_events=False (`main.py run`) with a drawing process runs
+START_WARM_S of them before the first frame, the rigid step's first (its frontends and first launches
+are the heaviest pieces, 20-120 ms each), and the rest in the time the simulation waits for the
+drawing process (`run_one` is its idle work: the pot's falling frames take 8 ms to step and 40 ms to
+draw), provided the first contact cannot come before SAFETY_FRAMES + 1 frames (rigid.first_contact
+gives a lower bound on its time; a ball launched at a pane: all before the first frame, as at the
+build). Time spent before the first frame counts as the build's (stats.json `build_s`). Those the idle
 time has not run by the time the frames left before a contact are fewer than them run in those
 frames, spread by time: each frame takes its share of what is left (the pieces left of each kind, the
 rigid step's and the events', times that kind's mean time so far, at least PIECE_FLOOR_S, over the
