@@ -287,15 +287,20 @@ class ParticleStore:
         ascending, a local ParticleSet of K rows, their kernel tensors (K, 3, 3) 1/m, the store rows
         of their extra links). `put_body` writes a changed copy of one body back."""
         ids = self._body_rows.rows(bodies)  # ascending: the order of the whole-world arrays (geometry/body_rows.py)
+        ps, kernel_G, rows = self._take(ids)
+        self.transfers.append(("take_bodies", len(ids)))
+        return ids.astype(np.int64), ps, kernel_G, rows
+
+    def _take(self, ids: np.ndarray) -> tuple[ParticleSet, np.ndarray, np.ndarray]:
+        """Rows `ids` (ascending) as a local ParticleSet, their kernel tensors and the store rows of the
+        extra links among them (ascending)."""
         cols, ne = self._gather(ids)
         rows = np.empty(ne, dtype=np.int32)
         _k_copy_rows_i32(ne, self.select_rows, rows)
         rows.sort()
         pairs = np.empty((ne, 2), dtype=np.int32)
         _k_gather_extra(rows, ids, self.link_extra, self.particle_slot, pairs)
-        self.transfers.append(("take_bodies", len(ids)))
-        ps = _particle_set(cols, pairs)
-        return ids.astype(np.int64), ps, cols["particle_kernel"], rows
+        return _particle_set(cols, pairs), cols["particle_kernel"], rows
 
     def _gather(self, ids: np.ndarray) -> tuple[dict, int]:
         """take_bodies' gather: the rows' columns (local ids) and how many extra links they hold."""
@@ -430,12 +435,12 @@ class ParticleStore:
         """The whole store as a read-only ParticleSet and its kernel tensors (N, 3, 3) 1/m: an output
         copy, downloaded when the store changed since the last call."""
         if self.kept_host() is None:
-            n = self.count
-            cols = {name: getattr(self, name).to_numpy()[:n] for name in (*_FIXED, *_CHANGING)}
-            alive = self.link_extra_alive.to_numpy()[: self.extra_count] != 0
-            pairs = self.link_extra.to_numpy()[: self.extra_count][alive].astype(np.int64)
-            self.transfers.append(("host", n))
-            self._keep_host(_particle_set(cols, pairs), cols["particle_kernel"])
+            # every row gathered as an event gathers a body's (local ids are then the store's): the
+            # event's kernels, compiled at the start, where Taichi's to_numpy compiles one kernel per
+            # dtype and rank at a run's end (0.5 s)
+            ps, kernel_G, _ = self._take(np.arange(self.count, dtype=np.int32))
+            self.transfers.append(("host", self.count))
+            self._keep_host(ps, kernel_G)
         return self._host[1], self._host[2]
 
     def _keep_host(self, ps: ParticleSet, G: np.ndarray) -> None:
