@@ -300,9 +300,8 @@ def section_meets_region(crack: Crack, verts: np.ndarray, d: np.ndarray | None =
     region, or P lies inside the polygon."""
     poly, straddle = section_polygons(crack, verts, d)
     nxt = np.roll(poly, -1, axis=1)
-    hit = np.zeros(len(verts), dtype=bool)
-    for i in range(4):  # 4 polygon edges (fixed count, vectorised over tets)
-        hit |= _inplane_segment_meets_region(crack, poly[:, i], nxt[:, i])
+    # the 4 polygon edges of every tet in one call (rows (tet, edge)): each edge's arithmetic as alone
+    hit = _inplane_segment_meets_region(crack, poly.reshape(-1, 3), nxt.reshape(-1, 3)).reshape(-1, 4).any(axis=1)
     cr = np.einsum("mij,j->mi", cross3(nxt - poly, crack.point - poly), crack.normal)
     inside = np.all(cr >= 0.0, axis=1) | np.all(cr <= 0.0, axis=1)
     return straddle & (hit | inside)

@@ -60,17 +60,17 @@ def min_child_volume_ratio(snap_rel: float = SNAP_REL) -> float:
 
 
 def _sort_points(pts: list[np.ndarray]) -> list[np.ndarray]:
-    """Sort 3 or 4 point arrays (M, 3) lexicographically per row (a fixed sorting network)."""
+    """Sort 3 or 4 point arrays (..., 3) lexicographically per point (a fixed sorting network)."""
     pts = list(pts)
     net = {3: [(0, 1), (1, 2), (0, 1)], 4: [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)]}[len(pts)]
     for i, j in net:
-        sw = lex_less(pts[j], pts[i])[:, None]
+        sw = lex_less(pts[j], pts[i])[..., None]
         pts[i], pts[j] = np.where(sw, pts[j], pts[i]), np.where(sw, pts[i], pts[j])
     return pts
 
 
 def canonical_mean(pts: list[np.ndarray]) -> np.ndarray:
-    """Vertex mean of 3 or 4 points (each (M, 3)), the same bits for any order of the inputs."""
+    """Vertex mean of 3 or 4 points (each (..., 3)), the same bits for any order of the inputs."""
     s = _sort_points(pts)
     acc = s[0] + s[1]
     for p in s[2:]:
@@ -167,8 +167,12 @@ def split_tets(verts: np.ndarray, d: np.ndarray, sign: np.ndarray) -> SplitResul
             pts[i] = v[:, i]
         for e, (i, j) in enumerate(tab.edges):
             pts[4 + e] = canonical_edge_point(v[:, i], v[:, j], dv[:, i], dv[:, j])
-        for pid, members in tab.means:
-            pts[pid] = canonical_mean([pts[q] for q in members])
+        for k in (3, 4):  # the table's means of k points at once: each point's arithmetic is the same
+            means = [(pid, members) for pid, members in tab.means if len(members) == k]
+            if means:
+                mean = canonical_mean([np.stack([pts[members[q]] for _, members in means]) for q in range(k)])
+                for g, (pid, _) in enumerate(means):
+                    pts[pid] = mean[g]
         P = np.stack(pts, axis=1)  # (m, n_points, 3)
         nc = len(tab.children)
         out_v.append(P[:, tab.children].reshape(-1, 4, 3))
