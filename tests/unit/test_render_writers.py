@@ -67,6 +67,25 @@ def test_png_interrupted_run_keeps_finished_frames(tmp_path):
     assert iio.imread(tmp_path / "frame_00002.png").shape == (30, 40, 3)
 
 
+@pytest.mark.parametrize("w,h", [(1, 1), (7, 3), (640, 480)])
+def test_png_encoder_reads_back_exactly_with_pillow_and_imageio(tmp_path, w, h):
+    """`encode_png` writes a PNG the reference readers decode to the same pixels, byte for byte, and
+    Pillow's structural check (chunk CRCs, header) accepts."""
+    import imageio.v3 as iio
+    from PIL import Image
+
+    from render.writers import encode_png
+
+    img = np.random.default_rng(w * h).integers(0, 256, size=(h, w, 3), dtype=np.uint8)
+    path = write_png(tmp_path / "f.png", img)
+    assert path.read_bytes() == encode_png(img)
+    with Image.open(path) as im:
+        im.verify()
+    with Image.open(path) as im:
+        assert im.mode == "RGB" and im.size == (w, h) and np.array_equal(np.asarray(im), img)
+    assert np.array_equal(iio.imread(path), img)
+
+
 @pytest.mark.parametrize("w,h", [(64, 48), (65, 47)])
 def test_mp4_reads_back(tmp_path, w, h):
     """H.264 MP4 (yuv420p): frame count, size (odd sizes padded to even) and content survive a read-back."""
