@@ -168,8 +168,7 @@ def split_tets(verts: np.ndarray, d: np.ndarray, sign: np.ndarray) -> SplitResul
         for e, (i, j) in enumerate(tab.edges):
             pts[4 + e] = canonical_edge_point(v[:, i], v[:, j], dv[:, i], dv[:, j])
         for k in (3, 4):  # the table's means of k points at once: each point's arithmetic is the same
-            means = [(pid, members) for pid, members in tab.means if len(members) == k]
-            if means:
+            if means := [(pid, members) for pid, members in tab.means if len(members) == k]:
                 mean = canonical_mean([np.stack([pts[members[q]] for _, members in means]) for q in range(k)])
                 for g, (pid, _) in enumerate(means):
                     pts[pid] = mean[g]
