@@ -5,8 +5,8 @@ run leaves each finished frame readable and never a half-written PNG, MP4 or GIF
   * `PngSequenceWriter`: `frame_00000.png`, `frame_00001.png`, ... each renamed as soon as written
     (`encode_png`: numpy and zlib);
   * `Mp4Writer`: H.264 (libx264 at MP4_PRESET, yuv420p) through imageio-ffmpeg, streamed to
-    `.<name>.<tag>.tmp.mp4` and renamed on `close()`. yuv420p needs even sizes: an odd width or height is padded by one
-    pixel (the last column/row repeated);
+    `.<name>.<tag>.tmp.mp4` and renamed on `close()`. yuv420p needs even sizes: an odd width or
+    height is padded by one pixel (the last column/row repeated);
   * `GifWriter`: frames are quantised to a 256-colour palette as they arrive (about a third of the
     RGB size in memory) and written with Pillow on `close()`, looping forever.
 `make_writer(fmt, ...)` picks one by name; an unknown name is a ConfigError. `WritingThread` hands

@@ -55,9 +55,8 @@ FIGURES = (
            "cracks along tet faces and subdivision straight ones, as in the paper; at this landing the "
            "adaptive pot gives 8 pieces on the AMD EPYC of session 43 (5 on sessions 41-42's, 8 on the machine "
            "before it, 28 on the one before that: Taichi compiles for the host CPU) and the basic one 11 (the "
-           "paper: 14 "
-           "adaptive, 6 basic). The first "
-           "landing is the same in both (its shatter zone, 2.7 mm, holds no particle to crush finer); the "
+           "paper: 14 adaptive, 6 basic). The first landing is the same in both (its shatter zone, 2.7 mm, "
+           "holds no particle to crush finer); the "
            "pieces' own landings decide the rest and are chaotic: at the third rotation angle of 6, 8, 12 "
            "and 14 degrees the adaptive pot gave 3, 34, 8 and 17 pieces and the basic one 19, 26, 12 and 8 "
            "(on an earlier machine). "
@@ -86,8 +85,7 @@ FIGURES = (
            "A heap of shards of many sizes, as in the paper, the shards breaking again as they land on "
            "each other (81 large pieces); of our 457 pieces on this machine (491 on sessions 41-42's, 457 on the "
            "one before; 587 in the paper) 353 are grains and particles shattered where shards strike each other "
-           "and 23 are "
-           "small (under 1% of a pot). No zoom-in from above: the sheet keeps one camera per scene."),
+           "and 23 are small (under 1% of a pot). No zoom-in from above: the sheet keeps one camera per scene."),
     Figure(11, "The pet model impacted by a falling ball. 20k original particles and 30k subdivided "
                "particles are created during the simulation",
            (Row("pet", "figurine struck by a steel ball", "Pet", 47),),
