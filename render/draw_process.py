@@ -10,8 +10,8 @@ poses and debris read from the stores), and sends it, and each call it would mak
 as a message (`SceneFeed`); the drawing process keeps the bodies' surface blocks (their surfaces,
 colours and crack lines, render/surface_blocks.py), the `RenderScene`, the renderer, the following
 camera and the PNG and video writers, which write each frame on a thread of their own while the next
-one is drawn (render/writers.py `WritingThread`: the pot's 8 ms of PNG and 4 ms of video feed a
-frame, 20-30% of the drawing process's frame). While the World builds it compiles its renderer for the
+one is drawn (render/writers.py `WritingThread`: in session 42 the pot's 8 ms of PNG and 4 ms of
+video feed a frame, 20-30% of the drawing process's frame; session 43's encoders take less). While the World builds it compiles its renderer for the
 buffer sizes the scene asked for last time (render/prewarm.py); it renders the scene once as soon as
 it has one, so that what is left to compile does while the simulation takes its first step. The
 fragments' surfaces it makes import no scipy (geometry/grid_search.py). Messages are written
