@@ -12,8 +12,9 @@ colours and crack lines, render/surface_blocks.py), the `RenderScene`, the rende
 camera and the PNG and video writers, which write each frame on a thread of their own while the next
 one is drawn (render/writers.py `WritingThread`: in session 42 the pot's 8 ms of PNG and 4 ms of
 video feed a frame, 20-30% of the drawing process's frame; session 43's encoders take less). While
-the World builds it compiles its renderer for the buffer sizes the scene asked for last time (render/prewarm.py); it renders the scene once as soon as
-it has one, so that what is left to compile does while the simulation takes its first step. The
+the World builds it compiles its renderer for the buffer sizes the scene asked for last time
+(render/prewarm.py); it renders the scene once as soon as it has one, so that what is left to
+compile does while the simulation takes its first step. The
 fragments' surfaces it makes import no scipy (geometry/grid_search.py). Messages are written
 on a thread of the simulation process (`_Sender`), so the simulation never waits on a drawing process
 that is busy reading an earlier one: before, writing the surface blocks waited 0.4-0.5 s of the pot's
