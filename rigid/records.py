@@ -121,6 +121,7 @@ class ContactEvents:
     normal_impulse: np.ndarray  # (C,) N s
     normal_speed: np.ndarray  # (C,) m/s
     separation: np.ndarray  # (C,) m: gap at the step start (negative = penetration)
+    site_radius: np.ndarray  # (C,) m: the larger radius of the contact's spheres (sphere A's on a collider)
 
     def __len__(self) -> int:
         return len(self.body_a)
@@ -135,31 +136,35 @@ class ContactEvents:
     def by_body_pair(self) -> dict:
         """Impacts summed per body pair: arrays body_a, body_b, impulse (N s, summed), speed (m/s, most
         negative pre-solve normal speed), point (impulse-weighted mean), normal (impulse-weighted,
-        normalised). Only contacts with impulse > 0 count."""
+        normalised), and site_point, site_normal: the same means over the pair's hardest site, the contact
+        with the largest impulse and those whose spheres overlap its sphere. The mean point can lie off
+        both bodies where they touch on a ring (a pot landing on its rim: the ring's centre is in the
+        opening) or on separate patches (a body on two feet); the site's always lies where they touch.
+        Only contacts with impulse > 0 count."""
         ev = self.touching()
         if len(ev) == 0:
             z = np.zeros(0)
-            return dict(
-                body_a=z.astype(int),
-                body_b=z.astype(int),
-                impulse=z,
-                speed=z,
-                point=np.zeros((0, 3)),
-                normal=np.zeros((0, 3)),
-            )
+            return dict(body_a=z.astype(int), body_b=z.astype(int), impulse=z, speed=z, point=np.zeros((0, 3)),
+                        normal=np.zeros((0, 3)), site_point=np.zeros((0, 3)), site_normal=np.zeros((0, 3)))
         pairs = np.stack([ev.body_a, ev.body_b], 1)
         uniq, inv = unique_rows(pairs, return_inverse=True)
         m = len(uniq)
-        imp = np.bincount(inv, weights=ev.normal_impulse, minlength=m)
         speed = np.full(m, np.inf)
         np.minimum.at(speed, inv, ev.normal_speed)
-        pt = np.stack(
-            [np.bincount(inv, weights=ev.normal_impulse * ev.point[:, k], minlength=m) for k in range(3)], 1
-        )
-        nr = np.stack(
-            [np.bincount(inv, weights=ev.normal_impulse * ev.normal[:, k], minlength=m) for k in range(3)], 1
-        )
-        nr /= np.maximum(np.linalg.norm(nr, axis=1, keepdims=True), 1e-300)
-        return dict(
-            body_a=uniq[:, 0], body_b=uniq[:, 1], impulse=imp, speed=speed, point=pt / imp[:, None], normal=nr
-        )
+        imp, pt, nr = _weighted_means(inv, m, ev.normal_impulse, ev.point, ev.normal)
+        order = np.lexsort((-ev.normal_impulse, inv))  # each pair's contacts, the largest impulse first
+        hardest = order[np.r_[0, np.flatnonzero(np.diff(inv[order])) + 1]][inv]  # (C,): its pair's hardest row
+        reach = np.linalg.norm(ev.point - ev.point[hardest], axis=1)
+        in_site = reach <= ev.site_radius + ev.site_radius[hardest]
+        _, site_pt, site_nr = _weighted_means(inv, m, ev.normal_impulse * in_site, ev.point, ev.normal)
+        return dict(body_a=uniq[:, 0], body_b=uniq[:, 1], impulse=imp, speed=speed, point=pt, normal=nr,
+                    site_point=site_pt, site_normal=site_nr)
+
+
+def _weighted_means(inv: np.ndarray, m: int, weight: np.ndarray, point: np.ndarray, normal: np.ndarray):
+    """Per group of `inv` (m groups): (summed weight, weighted mean point, weighted mean normal normalised)."""
+    total = np.bincount(inv, weights=weight, minlength=m)
+    pt = np.stack([np.bincount(inv, weights=weight * point[:, k], minlength=m) for k in range(3)], 1)
+    nr = np.stack([np.bincount(inv, weights=weight * normal[:, k], minlength=m) for k in range(3)], 1)
+    nr /= np.maximum(np.linalg.norm(nr, axis=1, keepdims=True), 1e-300)
+    return total, pt / total[:, None], nr

@@ -425,6 +425,7 @@ class RigidWorld(HostSync):
         if nc > 0:
             transfers.k_download_contacts(self._s, nc, a, b, ba, bb, p, n, ln, vn0, sep)
         a, b, ba, bb = a[:nc], b[:nc], ba[:nc], bb[:nc]
+        rad = self._sph_radius.astype(np.float64)
         return ContactEvents(
             body_a=ba.astype(np.int64),
             body_b=bb.astype(np.int64),
@@ -436,6 +437,7 @@ class RigidWorld(HostSync):
             normal_impulse=ln[:nc].astype(np.float64),
             normal_speed=vn0[:nc].astype(np.float64),
             separation=sep[:nc].astype(np.float64),
+            site_radius=np.maximum(rad[a], np.where(b >= 0, rad[np.maximum(b, 0)], 0.0)),
         )
 
     def kinetic_energy(self, state: BodyState | None = None) -> float:

@@ -253,17 +253,23 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     ids = analysed_rows(ps, body)
     point_w = np.asarray(impact["point"], dtype=np.float64)
     ref = impact.get("reference") or contact_in_reference(world, body, impact["other"], point_w, impact["normal"])
-    point = ref["point"]
 
     def nearest_to(p: np.ndarray) -> int:
         return int(ids[int(np.argmin(np.linalg.norm(ps.centroid[ids] - p, axis=1)))])
 
-    nearest = nearest_to(point)
-    # the struck surface's own point and normal, not the collision spheres' (surface_frame)
-    edge = tet_edge(float(ps.volume[nearest]))
     surface = SurfaceRows(ps, body)
-    point, normal = surface_frame(ps, body, point, ref["normal"], edge, striker=ref["striker"], surface=surface)
-    nearest = nearest_to(point)
+
+    def struck_point(contact: dict):
+        """The struck surface's own point and normal, not the collision spheres' (surface_frame)."""
+        edge = tet_edge(float(ps.volume[nearest_to(contact["point"])]))
+        point, normal = surface_frame(ps, body, contact["point"], contact["normal"], edge, striker=contact["striker"],
+                                      surface=surface)
+        return point, normal, edge, nearest_to(point)
+
+    point, normal, edge, nearest = struck_point(ref)
+    if impact.get("site") is not None and not _within_kernel(G[nearest], ps.centroid[nearest], point):
+        # the contacts' mean lies off the body (a ring of contact, two feet): their hardest site's point
+        point, normal, edge, nearest = struck_point(impact["site"])
     material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),
@@ -278,6 +284,12 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     at = [nearest_to(c.point) for c in result.cracks]
     result.cracks = merge_coincident(result.cracks, tet_edge(ps.volume[at]), world.bodies[body].history)
     return result
+
+
+def _within_kernel(G: np.ndarray, centre: np.ndarray, point: np.ndarray) -> bool:
+    """Whether `point` lies in the support |G (x - centre)| < 1 of a particle's kernel (Eq. 4): Algorithm 1's
+    N_p around it (lines 1-6) then holds that particle at least."""
+    return float(np.linalg.norm(G @ (point - centre))) < 1.0
 
 
 def across_materials(world, taken: TakenBody, body: int, ids: np.ndarray, spec, material: int,

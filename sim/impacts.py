@@ -11,7 +11,9 @@ from __future__ import annotations
 def collect_impacts(world, impacts: dict[int, dict]) -> None:
     """Keep in `impacts`, per breakable body, the hardest impact of this frame above the scene's speed
     threshold: the contact's point and normal (into the struck body), speed, impulse, the time left in
-    the frame, and both bodies' velocities at the substep's start (sim/perforation.py)."""
+    the frame, both bodies' velocities at the substep's start (sim/perforation.py), and the contact in
+    the struck body's reference frame (`reference`) with its hardest site's (`site`: where the contacts'
+    mean lies off the body, rigid/records.py `by_body_pair`)."""
     from sim.fracture_stage import contact_in_reference
 
     threshold = world.cfg.scene.impact_threshold
@@ -41,6 +43,8 @@ def collect_impacts(world, impacts: dict[int, dict]) -> None:
                     striker_w=start.w[other].copy() if other >= 0 else None,
                     struck_v=start.v[struck].copy(), struck_w=start.w[struck].copy(),
                     reference=contact_in_reference(world, struck, other, point, normal, state),
+                    site=contact_in_reference(world, struck, other, pairs["site_point"][k].copy(),
+                                              sign * pairs["site_normal"][k], state),
                 )
 
 
