@@ -267,7 +267,7 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
         return point, normal, edge, nearest_to(point)
 
     point, normal, edge, nearest = struck_point(ref)
-    if impact.get("site") is not None and not _within_kernel(G[nearest], ps.centroid[nearest], point):
+    if impact.get("site") is not None and not within_kernel(G[nearest], ps.centroid[nearest], point):
         # the contacts' mean lies off the body (a ring of contact, two feet): their hardest site's point
         point, normal, edge, nearest = struck_point(impact["site"])
     material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
@@ -286,7 +286,7 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
     return result
 
 
-def _within_kernel(G: np.ndarray, centre: np.ndarray, point: np.ndarray) -> bool:
+def within_kernel(G: np.ndarray, centre: np.ndarray, point: np.ndarray) -> bool:
     """Whether `point` lies in the support |G (x - centre)| < 1 of a particle's kernel (Eq. 4): Algorithm 1's
     N_p around it (lines 1-6) then holds that particle at least."""
     return float(np.linalg.norm(G @ (point - centre))) < 1.0

@@ -158,10 +158,12 @@ def test_boundary_particles_belong_to_live_bodies(plate):
 def test_strike_arguments(plate):
     top = plate.surface_point("plate", [0.0, -1.0, 0.0])
     bad = [(top, [0.0, 0.0, 0.0], "strike.velocity"), ([0.0, np.nan, 0.0], [0, -1, 0], "strike.point"),
-           (top, [1.0, 2.0], "strike.velocity")]
+           (top, [1.0, 2.0], "strike.velocity"), (top + [0.0, 0.5, 0.0], [0, -1, 0], "strike.point")]
     for point, velocity, key in bad:
         with pytest.raises(af.ConfigError, match=key):
             plate.strike("plate", point, velocity)
+    with pytest.raises(af.ConfigError, match="preview.point"):  # off the body: it would crack nothing, silently
+        plate.preview("plate", top + [0.2, 0.0, 0.0], [0.0, -1.0, 0.0])
     with pytest.raises(af.ConfigError, match="body_of.name"):
         plate.strike("nothing", top, [0.0, -1.0, 0.0])
     with pytest.raises(af.ConfigError, match="strike.body"):
