@@ -57,7 +57,8 @@ def breakable(world, body: int) -> bool:
 def strike_impact(world, body: int, point, velocity, key: str = "strike") -> dict:
     """The impact dict of sim.fracture_stage for a rigid anvil moving at `velocity` (m/s, world) that
     meets `body` at `point` (m, world): speed |v|, inward normal v / |v|, impulse m |v| (kg m/s, for
-    the record). Bad arguments raise ConfigError naming `key`."""
+    the record) and `key`. Bad arguments raise ConfigError naming `key`; a point off the body raises it
+    in the analysis (sim.fracture_stage.analyse), which has the body's particles at hand."""
     p = np.asarray(point, dtype=np.float64).reshape(-1)
     v = np.asarray(velocity, dtype=np.float64).reshape(-1)
     if p.shape != (3,) or not np.all(np.isfinite(p)):
@@ -67,24 +68,8 @@ def strike_impact(world, body: int, point, velocity, key: str = "strike") -> dic
         raise ConfigError(f"{key}.velocity", np.asarray(velocity).tolist(), "3 finite components, speed > 0 m/s")
     if not breakable(world, body):
         raise ConfigError(f"{key}.body", body, f"a live breakable body ({_breakable_ids(world)})")
-    _check_on_body(world, body, p, key)
-    return dict(other=-1, speed=speed, point=p.copy(), normal=v / speed, impulse=world.rigid.body_mass(body) * speed)
-
-
-def _check_on_body(world, body: int, point: np.ndarray, key: str) -> None:
-    """ConfigError unless the world point lies on `body`: within the kernel of its nearest particle, where
-    Algorithm 1 finds particles to analyse (a point off the body would crack nothing, silently)."""
-    from sim.fracture_stage import analysed_rows, take_body, within_kernel
-
-    taken = take_body(world, body)
-    ps = taken.particles
-    rows = analysed_rows(ps, body)
-    p_ref = to_reference(body_frames(world), body, point)
-    dist = np.linalg.norm(ps.centroid[rows] - p_ref, axis=1)
-    k = int(rows[int(np.argmin(dist))])
-    if not within_kernel(taken.kernel_G[k], ps.centroid[k], p_ref):
-        raise ConfigError(f"{key}.point", point.tolist(), f"a point on body {body}'s surface (it lies "
-                          f"{dist.min():.3g} m from the body's nearest particle; Simulation.surface_point gives one)")
+    return dict(other=-1, speed=speed, point=p.copy(), normal=v / speed, impulse=world.rigid.body_mass(body) * speed,
+                key=key)
 
 
 def _breakable_ids(world) -> str:

@@ -133,11 +133,12 @@ class ContactEvents:
     def _select(self, mask: np.ndarray) -> ContactEvents:
         return ContactEvents(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
 
-    def by_body_pair(self) -> dict:
+    def by_body_pair(self, site_above: float = -math.inf) -> dict:
         """Impacts summed per body pair: arrays body_a, body_b, impulse (N s, summed), speed (m/s, most
         negative pre-solve normal speed), point (impulse-weighted mean), normal (impulse-weighted,
         normalised), and site_point, site_normal: the same means over the pair's hardest site, the contact
-        with the largest impulse and those whose spheres overlap its sphere. The mean point can lie off
+        with the largest impulse and those whose spheres overlap its sphere (NaN for the pairs closing at
+        `site_above` m/s or slower: only the impacts a caller keeps need them). The mean point can lie off
         both bodies where they touch on a ring (a pot landing on its rim: the ring's centre is in the
         opening) or on separate patches (a body on two feet); the site's always lies where they touch.
         Only contacts with impulse > 0 count."""
@@ -152,13 +153,26 @@ class ContactEvents:
         speed = np.full(m, np.inf)
         np.minimum.at(speed, inv, ev.normal_speed)
         imp, pt, nr = _weighted_means(inv, m, ev.normal_impulse, ev.point, ev.normal)
-        order = np.lexsort((-ev.normal_impulse, inv))  # each pair's contacts, the largest impulse first
-        hardest = order[np.r_[0, np.flatnonzero(np.diff(inv[order])) + 1]][inv]  # (C,): its pair's hardest row
-        reach = np.linalg.norm(ev.point - ev.point[hardest], axis=1)
-        in_site = reach <= ev.site_radius + ev.site_radius[hardest]
-        _, site_pt, site_nr = _weighted_means(inv, m, ev.normal_impulse * in_site, ev.point, ev.normal)
+        site_pt, site_nr = np.full((m, 3), np.nan), np.full((m, 3), np.nan)
+        fast = -speed > site_above
+        wanted = np.flatnonzero(fast)  # the pairs whose sites are made, ascending
+        if len(wanted):
+            rows = np.flatnonzero(fast[inv])
+            site_pt[wanted], site_nr[wanted] = ev._hardest_sites(rows, np.searchsorted(wanted, inv[rows]), len(wanted))
         return dict(body_a=uniq[:, 0], body_b=uniq[:, 1], impulse=imp, speed=speed, point=pt, normal=nr,
                     site_point=site_pt, site_normal=site_nr)
+
+    def _hardest_sites(self, rows: np.ndarray, group: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """(points (n,3), unit normals (n,3)) of the hardest site of each group 0..n-1 (none empty) of the
+        contacts `rows`: the impulse-weighted means over its hardest contact and those whose spheres overlap
+        that one's sphere."""
+        order = np.lexsort((-self.normal_impulse[rows], group))  # each group's contacts, the largest impulse first
+        first = order[np.r_[0, np.flatnonzero(np.diff(group[order])) + 1]]  # (n,): each group's hardest
+        hardest = rows[first][group]  # (R,): the hardest contact of each row's group
+        p = self.point[rows]
+        in_site = np.linalg.norm(p - self.point[hardest], axis=1) <= self.site_radius[rows] + self.site_radius[hardest]
+        _, site_pt, site_nr = _weighted_means(group, n, self.normal_impulse[rows] * in_site, p, self.normal[rows])
+        return site_pt, site_nr
 
 
 def _weighted_means(inv: np.ndarray, m: int, weight: np.ndarray, point: np.ndarray, normal: np.ndarray):

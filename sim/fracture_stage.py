@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from core.arrays import cross3
+from core.errors import ConfigError
 from geometry.particles import ParticleSet, tet_edge
 from sim.bodies import BodyInfo
 from sim.struck_surface import SurfaceRows, surface_frame, surface_radius_at
@@ -267,9 +268,13 @@ def analyse(world, body: int, impact: dict, taken: TakenBody | None = None):
         return point, normal, edge, nearest_to(point)
 
     point, normal, edge, nearest = struck_point(ref)
-    if impact.get("site") is not None and not within_kernel(G[nearest], ps.centroid[nearest], point):
-        # the contacts' mean lies off the body (a ring of contact, two feet): their hardest site's point
-        point, normal, edge, nearest = struck_point(impact["site"])
+    if not within_kernel(G[nearest], ps.centroid[nearest], point):  # the point lies off the body
+        if impact.get("site") is not None:  # the contacts' mean (a ring of contact, two feet): their hardest site
+            point, normal, edge, nearest = struck_point(impact["site"])
+        elif impact.get("key"):  # a caller's point (anisofrac/strikes.py): it would crack nothing, silently
+            far = float(np.linalg.norm(point - ps.centroid[nearest]))
+            raise ConfigError(f"{impact['key']}.point", point_w.tolist(), f"a point on body {body}'s surface (it lies "
+                              f"{far:.3g} m from the body's nearest particle; Simulation.surface_point gives one)")
     material = world.object_material(world.bodies[body].object_index, int(ps.material[nearest]))
     cfg_mat = world.cfg.materials[int(ps.material[nearest])]
     spec = ImpactSpec(point=point, normal=normal, speed=impact["speed"], held=bool(world.rigid.body_is_static(body)),

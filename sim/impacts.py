@@ -19,7 +19,7 @@ def collect_impacts(world, impacts: dict[int, dict]) -> None:
     threshold = world.cfg.scene.impact_threshold
     if world.rigid.fastest_closing() <= threshold:
         return  # no contact closes fast enough: nothing to download
-    pairs = world.rigid.contact_events().by_body_pair()
+    pairs = world.rigid.contact_events().by_body_pair(site_above=threshold)  # sites of the impacts kept
     state = None  # the bodies' poses, downloaded once and only when an impact is kept
     start = world._substep_start
     for k in range(len(pairs["impulse"])):

@@ -158,7 +158,7 @@ def test_boundary_particles_belong_to_live_bodies(plate):
 def test_strike_arguments(plate):
     top = plate.surface_point("plate", [0.0, -1.0, 0.0])
     bad = [(top, [0.0, 0.0, 0.0], "strike.velocity"), ([0.0, np.nan, 0.0], [0, -1, 0], "strike.point"),
-           (top, [1.0, 2.0], "strike.velocity"), (top + [0.0, 0.5, 0.0], [0, -1, 0], "strike.point")]
+           (top, [1.0, 2.0], "strike.velocity"), (top + [0.5, 0.0, 0.0], [0, -1, 0], "strike.point")]
     for point, velocity, key in bad:
         with pytest.raises(af.ConfigError, match=key):
             plate.strike("plate", point, velocity)
