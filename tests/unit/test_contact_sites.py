@@ -16,14 +16,14 @@ from rigid.records import ContactEvents
 SITE = 0.005  # m: the contact spheres' radius
 
 
-def events(points, impulses, speeds=None, normals=None, body_b=-1) -> ContactEvents:
-    """Contacts of body 0 with body `body_b` (-1: a collider) at `points`, each with its impulse."""
+def events(points, impulses, speeds=None) -> ContactEvents:
+    """Contacts of body 0 with the floor (collider 0, normal +y) at `points`, each with its impulse."""
     p = np.asarray(points, np.float64)
     c = len(p)
     ints = np.zeros(c, np.int64)
     return ContactEvents(
-        body_a=ints, body_b=ints + body_b, sphere_a=np.arange(c), sphere_b=ints - 1, collider=ints,
-        point=p, normal=np.tile([0.0, 1.0, 0.0], (c, 1)) if normals is None else np.asarray(normals, np.float64),
+        body_a=ints, body_b=ints - 1, sphere_a=np.arange(c), sphere_b=ints - 1, collider=ints,
+        point=p, normal=np.tile([0.0, 1.0, 0.0], (c, 1)),
         normal_impulse=np.asarray(impulses, np.float64),
         normal_speed=np.full(c, -3.0) if speeds is None else np.asarray(speeds, np.float64),
         separation=np.zeros(c), site_radius=np.full(c, SITE),
@@ -91,3 +91,12 @@ def test_pairs_are_kept_apart():
     assert abs(np.hypot(pair["site_point"][0][0], pair["site_point"][0][2]) - 0.06) < 0.1 * SITE
     np.testing.assert_allclose(pair["site_point"][1], [1.00225, 0.0, 0.0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(pair["point"][1], [1.00225, 0.0, 0.0], rtol=0, atol=1e-12)
+
+
+def test_sites_only_for_pairs_closing_fast():
+    """`site_above`: a pair closing at 3 m/s gets its site above a 2 m/s threshold and NaN above 4 m/s;
+    the means do not depend on it."""
+    ev = events(ring(12, 0.06), np.ones(12))
+    slow, fast = ev.by_body_pair(site_above=4.0), ev.by_body_pair(site_above=2.0)
+    assert np.isnan(slow["site_point"]).all() and np.isfinite(fast["site_point"]).all()
+    np.testing.assert_array_equal(slow["point"], fast["point"])
