@@ -14,6 +14,7 @@ import numpy as np
 import tomllib
 
 from scenes.loader import scene_from_dict
+from sim.fracture_stage import analysed_rows
 from sim.world import World
 
 POT = Path(__file__).resolve().parents[2] / "scenes" / "pot.toml"
@@ -34,8 +35,9 @@ def test_a_pot_landing_on_its_rim_is_analysed_on_the_rim_and_breaks():
         while not w.analyses and w.frame < 40:
             w.step_frame()
         assert w.analyses, "the pot never struck the floor"
-        _, result = w.last_analysis
-        x = ps.centroid[result.nearest]  # reference frame: the pot as placed, the opening down
+        body, result = w.last_analysis
+        # `nearest` indexes the analysed rows; `ps` is the store's copy from before the event
+        x = ps.centroid[analysed_rows(ps, body)[result.nearest]]  # reference frame: as placed, the opening down
         assert x[1] - lowest < THICKNESS  # the rim's layer, not the base above it
         assert abs(np.hypot(x[0], x[2]) - RIM_RADIUS) < THICKNESS  # on the rim, not in the opening
         assert len(result.particles) > 0 and float(result.tension_per_newton.max()) > 0.0
