@@ -9,20 +9,22 @@ A fracture event works on the store in place and touches only its body (issue 17
 `take_body` gathers the struck body's particles, and the physical parents its children came from
 (Algorithm 1 analyses them, sim/fracture_stage.py), into a body-sized host `ParticleSet` with local
 indices; the host geometry code (geometry.fragments) cuts that; `put_body` writes back what changed
-and appends the children. Gathering and scattering are kernels, and which rows a body holds is an
-index kept on the host where the store writes them (geometry/body_rows.py: no pass over the whole
-store), so no whole-store array crosses to the host during an event: `transfers` records every copy
-to or from the host with its row count (a test counts an event's). `host()` is the whole store as a
-read-only `ParticleSet` for outputs (statistics, exports, the viewer), downloaded only when the store
-changed since the last.
+and appends the children. Which rows a body holds is an index kept on the host where the store writes
+them (geometry/body_rows.py: no pass over the whole store), so no whole-store array crosses to the
+host during an event: `transfers` records every copy to or from the host with its row count (a test
+counts an event's). `host()` is the whole store as a read-only `ParticleSet` for outputs (statistics,
+exports, the viewer), downloaded only when the store changed since the last.
 
-Ndarrays rather than fields: a kernel taking ndarrays compiles once for every capacity, so the store
-grows (doubling, copied on the device) without compiling anything, while a field passed as a
-template compiles its kernels per store (rigid/store.py pools its stores for that reason). Geometry
-stays float64 whatever the simulation precision: cuts, subdivision and mass properties run on it in
-float64 on the host, and a round trip is exact (a fracture event gives the same bits as before the
-store existed: tested with the scenes' state hashes). No `from __future__ import annotations` here:
-Taichi reads the kernels' annotations as objects.
+The copies (gathering, scattering, the extra links, per-body totals, the checks, growth) are numpy on
+views of the ndarrays' own memory where that memory is the host's, the CPU backend
+(geometry/store_host.py: nothing to compile, 0.9 s less of a process's compiling), and kernels
+elsewhere (geometry/store_kernels.py: CUDA); both give the same bits. Ndarrays rather than fields: a
+kernel taking ndarrays compiles once for every capacity, so the store grows (doubling, copied in
+place) without compiling anything, while a field passed as a template compiles its kernels per store
+(rigid/store.py pools its stores for that reason). Geometry stays float64 whatever the simulation
+precision: cuts, subdivision and mass properties run on it in float64 on the host, and a round trip
+is exact (a fracture event gives the same bits as before the store existed: tested with the scenes'
+state hashes).
 """
 
 import functools
@@ -30,161 +32,28 @@ import functools
 import numpy as np
 import taichi as ti
 
+from geometry import store_host
 from geometry.body_rows import BodyRows
 from geometry.particles import ParticleSet
-from geometry.store_checks import Arr, host_first_invalid, k_first_invalid
+from geometry.store_checks import host_first_invalid, k_first_invalid
+from geometry.store_kernels import (
+    k_body_totals,
+    k_compact_extra,
+    k_copy_rows_i32,
+    k_copy_store,
+    k_gather,
+    k_gather_extra,
+    k_put,
+    k_replace_extra,
+    k_take_f64,
+)
 
 GEOMETRY_DTYPE = ti.f64  # rest geometry and kernel tensors: float64, as the host geometry code
 MIN_CAPACITY = 64  # rows: the smallest store
 # rows per particle built: subdivision's children at the end of the paper scenes' runs make 2.2 (pot)
 # to 2.7 (glass_r3) rows per physical particle, so the store starts with room for that; Pots' grains
-# outgrow it (4.0 rows), and growing doubles it with a device copy whose kernels warm_pieces compiles
+# outgrow it (4.0 rows), and growing doubles it (on CUDA with a copy whose kernels warm_pieces compiles)
 HEADROOM = 4
-
-Ref = ti.template()  # an ndarray handed on to a ti.func
-
-
-# ----------------------------------------------------------------------------------------- kernels
-@ti.kernel
-def _k_copy_rows_i32(k: ti.i32, src: Arr, dst: Arr):
-    for j in range(k):
-        dst[j] = src[j]
-
-
-@ti.func
-def _copy_fixed(d, d_verts: Ref, d_centroid: Ref, d_volume: Ref, d_mass: Ref, d_radius: Ref, d_kernel: Ref,
-                d_material: Ref, d_kind: Ref, s, s_verts: Ref, s_centroid: Ref, s_volume: Ref, s_mass: Ref,
-                s_radius: Ref, s_kernel: Ref, s_material: Ref, s_kind: Ref):
-    """Row s of one set of fixed columns into row d of another (the parent is remapped apart)."""
-    for a, b in ti.ndrange(4, 3):
-        d_verts[d, a, b] = s_verts[s, a, b]
-    for a, b in ti.static(ti.ndrange(3, 3)):
-        d_kernel[d, a, b] = s_kernel[s, a, b]
-    for a in ti.static(range(3)):
-        d_centroid[d, a] = s_centroid[s, a]
-    d_volume[d] = s_volume[s]
-    d_mass[d] = s_mass[s]
-    d_radius[d] = s_radius[s]
-    d_material[d] = s_material[s]
-    d_kind[d] = s_kind[s]
-
-
-@ti.kernel
-def _k_gather(ids: Arr, particle_slot: Arr, particle_rest_verts: Arr, particle_centroid: Arr, particle_volume: Arr,
-              particle_mass: Arr, particle_radius: Arr, particle_kernel: Arr, particle_material: Arr,
-              particle_kind: Arr, particle_parent: Arr, particle_body: Arr, particle_alive: Arr,
-              particle_links: Arr, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
-              material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr, ne: ti.i32,
-              link_extra: Arr, link_extra_alive: Arr, select_rows: Arr, counter: Arr) -> ti.i32:
-    """Rows `ids` into host arrays; particle ids become local ones (slot - 1). A link or parent
-    outside the gathered rows is kept as -2 - id, which reads as 'no link' to the host code and is
-    decoded again by `put_body`. Then the live extra links with both ends gathered, unordered;
-    returns how many."""
-    for j in range(ids.shape[0]):
-        particle_slot[ids[j]] = j + 1
-    for j in range(ids.shape[0]):
-        i = ids[j]
-        _copy_fixed(j, verts, centroid, volume, mass, radius, kernel, material, kind, i, particle_rest_verts,
-                    particle_centroid, particle_volume, particle_mass, particle_radius, particle_kernel,
-                    particle_material, particle_kind)
-        body[j] = particle_body[i]
-        alive[j] = particle_alive[i]
-        p = particle_parent[i]
-        parent[j] = -1
-        if p >= 0:
-            parent[j] = particle_slot[p] - 1 if particle_slot[p] > 0 else -2 - p
-        for a in ti.static(range(4)):
-            t = particle_links[i, a]
-            links[j, a] = -1
-            if t >= 0:
-                links[j, a] = particle_slot[t] - 1 if particle_slot[t] > 0 else -2 - t
-    counter[0] = 0
-    for e in range(ne):
-        if link_extra_alive[e] != 0 and particle_slot[link_extra[e, 0]] > 0 and particle_slot[link_extra[e, 1]] > 0:
-            select_rows[ti.atomic_add(counter[0], 1)] = e
-    return counter[0]
-
-
-@ti.kernel
-def _k_gather_extra(rows: Arr, ids: Arr, link_extra: Arr, particle_slot: Arr, pairs: Arr):
-    """The extra links `rows` with local ids; then the marks of the gathered rows `ids` cleared."""
-    for j in range(rows.shape[0]):
-        for a in ti.static(range(2)):
-            pairs[j, a] = particle_slot[link_extra[rows[j], a]] - 1
-    for j in range(ids.shape[0]):
-        particle_slot[ids[j]] = 0
-
-
-@ti.kernel
-def _k_take_f64(ids: Arr, src: Arr, out: Arr):
-    for j in range(ids.shape[0]):
-        out[j] = src[ids[j]]
-
-
-@ti.kernel
-def _k_put(ids: Arr, made: ti.i32, verts: Arr, centroid: Arr, volume: Arr, mass: Arr, radius: Arr, kernel: Arr,
-           material: Arr, kind: Arr, parent: Arr, body: Arr, alive: Arr, links: Arr, particle_rest_verts: Arr,
-           particle_centroid: Arr, particle_volume: Arr, particle_mass: Arr, particle_radius: Arr,
-           particle_kernel: Arr, particle_material: Arr, particle_kind: Arr, particle_parent: Arr,
-           particle_body: Arr, particle_alive: Arr, particle_links: Arr):
-    """Host rows into store rows `ids`: the changing columns, and the fixed ones when `made` (new
-    particles; the fixed data of an existing particle never changes)."""
-    for j in range(ids.shape[0]):
-        i = ids[j]
-        particle_body[i] = body[j]
-        particle_alive[i] = alive[j]
-        for a in ti.static(range(4)):
-            particle_links[i, a] = links[j, a]
-        if made != 0:
-            _copy_fixed(i, particle_rest_verts, particle_centroid, particle_volume, particle_mass, particle_radius,
-                        particle_kernel, particle_material, particle_kind, j, verts, centroid, volume, mass, radius,
-                        kernel, material, kind)
-            particle_parent[i] = parent[j]
-
-
-@ti.kernel
-def _k_replace_extra(kill: Arr, first: ti.i32, pairs: Arr, link_extra: Arr, link_extra_alive: Arr):
-    """Extra links `kill` removed, `pairs` appended from row `first` on."""
-    for j in range(kill.shape[0]):
-        link_extra_alive[kill[j]] = 0
-    for j in range(pairs.shape[0]):
-        for a in ti.static(range(2)):
-            link_extra[first + j, a] = pairs[j, a]
-        link_extra_alive[first + j] = 1
-
-
-@ti.kernel
-def _k_compact_extra(ne: ti.i32, link_extra: Arr, link_extra_alive: Arr) -> ti.i32:
-    """Live extra links moved to the front, in order (one serial task); returns how many."""
-    kept = 0
-    ti.loop_config(serialize=True)
-    for e in range(ne):
-        if link_extra_alive[e] != 0:
-            for a in ti.static(range(2)):
-                link_extra[kept, a] = link_extra[e, a]
-            link_extra_alive[e] = 0
-            link_extra_alive[kept] = 1
-            kept += 1
-    return kept
-
-
-@ti.kernel
-def _k_body_totals(n: ti.i32, particle_alive: Arr, particle_body: Arr, particle_mass: Arr, count: Arr, mass: Arr):
-    """Alive particles and their mass (kg) per body, for bodies below count.shape[0]."""
-    for i in range(n):
-        b = particle_body[i]
-        if particle_alive[i] != 0 and 0 <= b < count.shape[0]:
-            ti.atomic_add(count[b], 1)
-            ti.atomic_add(mass[b], particle_mass[i])
-
-
-@ti.kernel
-def _k_copy_store(n: ti.i32, src: Arr, dst: Arr):
-    """Rows 0..n-1 of one store array into a bigger one of the same rank and trailing shape."""
-    for I in ti.grouped(src):
-        if I[0] < n:
-            dst[I] = src[I]
-
 
 # ------------------------------------------------------------------------------------------- store
 # store array -> (trailing shape, Taichi dtype, host dtype); the first five are fixed data
@@ -205,12 +74,17 @@ _CHANGING = {
     "particle_links": ((4,), ti.i32, np.int64),  # (C, 4) -: particle across tet face k, or -1
 }
 _HOST_NAME = {"particle_rest_verts": "rest_verts"}  # ParticleSet attribute; else the name minus 'particle_'
+_ARRAYS = (*_FIXED, *_CHANGING, "particle_slot", "link_extra", "link_extra_alive", "select_rows", "counter")
 
 
 class ParticleStore:
     """Tet particles in Taichi ndarrays (see the module docstring); `count` rows are in use."""
 
-    def __init__(self, particles: ParticleSet, kernel_G: np.ndarray | None, capacity: int = 0) -> None:
+    def __init__(self, particles: ParticleSet, kernel_G: np.ndarray | None, capacity: int = 0,
+                 on_host: bool = True) -> None:
+        # copies by numpy on views of the ndarrays where their memory is the host's (geometry/store_host.py);
+        # on_host=False: by the kernels everywhere (the tests compare the two)
+        self._on_host = on_host
         self.transfers: list[tuple[str, int]] = []  # (what, rows) of every copy to or from the host
         self.version = 0  # bumped by every change; host() downloads again when it moved
         self.body_stamp: dict[int, int] = {}  # body -> version of its last change (surface caches)
@@ -234,6 +108,8 @@ class ParticleStore:
         self.link_extra_alive = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) flag: 0 once removed
         self.select_rows = ti.ndarray(ti.i32, (self.extra_capacity,))  # (CE,) -: scratch of a selection
         self.counter = ti.ndarray(ti.i32, (1,))  # () -: selection counter
+        # name -> numpy view of each ndarray's memory (CPU backend), or None: the kernels copy
+        self._views = store_host.host_views({name: getattr(self, name) for name in _ARRAYS}) if self._on_host else None
 
     def _grow(self, rows: int, extra_rows: int) -> None:
         """Room for `rows` particles and `extra_rows` extra links: double and copy on the device (no
@@ -247,10 +123,14 @@ class ParticleStore:
             cap *= 2
         while ecap < extra_rows:
             ecap *= 2
+        old_views = self._views
         self._allocate(cap, ecap)
         for name, src in old.items():
             rows_in_use = ne if name.startswith("link_extra") else n
-            _k_copy_store(rows_in_use, src, getattr(self, name))
+            if self._views is not None:
+                self._views[name][:rows_in_use] = old_views[name][:rows_in_use]
+            else:
+                k_copy_store(rows_in_use, src, getattr(self, name))
 
     def reset(self, particles: ParticleSet, kernel_G: np.ndarray | None) -> None:
         """Replace the whole content (input: a World's build, the viewer's added ball). Without
@@ -277,9 +157,9 @@ class ParticleStore:
         self._keep_host(_particle_set(cols, particles.extra_links.copy()), cols["particle_kernel"])
 
     def release(self) -> None:
-        for name in (*_FIXED, *_CHANGING, "particle_slot", "link_extra", "link_extra_alive",
-                     "select_rows", "counter"):
+        for name in _ARRAYS:
             setattr(self, name, None)  # the last host() copy stays readable
+        self._views = None
 
     # ---- a fracture event ------------------------------------------------------------------------
     def take_bodies(self, bodies) -> tuple[np.ndarray, ParticleSet, np.ndarray, np.ndarray]:
@@ -294,19 +174,25 @@ class ParticleStore:
     def _take(self, ids: np.ndarray) -> tuple[ParticleSet, np.ndarray, np.ndarray]:
         """Rows `ids` (ascending) as a local ParticleSet, their kernel tensors and the store rows of the
         extra links among them (ascending)."""
+        if self._views is not None:
+            columns = {name: _kernel_dtype(host) for name, (_, _, host) in {**_FIXED, **_CHANGING}.items()
+                       if name not in ("particle_parent", "particle_links")}
+            cols, rows, pairs = store_host.take(self._views, ids, self.extra_count, columns)
+            cols = {name: cols[name] for name in (*_FIXED, *_CHANGING)}  # the kernels' column order
+            return _particle_set(cols, pairs), cols["particle_kernel"], rows
         cols, ne = self._gather(ids)
         rows = np.empty(ne, dtype=np.int32)
-        _k_copy_rows_i32(ne, self.select_rows, rows)
+        k_copy_rows_i32(ne, self.select_rows, rows)
         rows.sort()
         pairs = np.empty((ne, 2), dtype=np.int32)
-        _k_gather_extra(rows, ids, self.link_extra, self.particle_slot, pairs)
+        k_gather_extra(rows, ids, self.link_extra, self.particle_slot, pairs)
         return _particle_set(cols, pairs), cols["particle_kernel"], rows
 
     def _gather(self, ids: np.ndarray) -> tuple[dict, int]:
         """take_bodies' gather: the rows' columns (local ids) and how many extra links they hold."""
         cols = {name: np.empty((len(ids), *shape), dtype=_kernel_dtype(host))
                 for name, (shape, _, host) in {**_FIXED, **_CHANGING}.items()}
-        ne = _k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
+        ne = k_gather(ids, self.particle_slot, *self._columns(), *cols.values(), self.extra_count, self.link_extra,
                        self.link_extra_alive, self.select_rows, self.counter)
         return cols, ne
 
@@ -335,14 +221,17 @@ class ParticleStore:
     def warm_pieces(self) -> list:
         """Launchers of every kernel of an event and a frame after it, growth and compaction included (Pots'
         grains outgrow HEADROOM: compiling the copy stalled a frame 190 ms), each on nothing and changing
-        nothing (the host copy and `transfers` stay): sim/warm_up.py runs them (issue 16)."""
+        nothing (the host copy and `transfers` stay): sim/warm_up.py runs them (issue 16). None where
+        numpy makes the copies (the CPU backend: nothing to compile)."""
+        if self._views is not None:
+            return []
         columns = {(a.dtype, len(a.shape)): a for a in self._columns() + [self.link_extra]}.values()
         nothing = np.zeros(0, np.int32)
         launches = [lambda: self._gather(nothing),  # the event's largest kernels first
                     lambda: self.put_body(*self.take_bodies([])), lambda: self.take_mass(np.zeros(0, np.int64)),
                     lambda: self.first_invalid(device=True), lambda: self.body_totals(1, device=True),
-                    *(functools.partial(_k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
-                    lambda: _k_compact_extra(0, self.link_extra, self.link_extra_alive)]
+                    *(functools.partial(k_copy_store, 0, c, c) for c in columns),  # one per dtype and rank
+                    lambda: k_compact_extra(0, self.link_extra, self.link_extra_alive)]
         return [functools.partial(self._unchanged, f) for f in launches]
 
     def _unchanged(self, launch) -> None:
@@ -361,18 +250,30 @@ class ParticleStore:
         return [getattr(self, name) for name in (*_FIXED, *_CHANGING)]
 
     def _put_rows(self, ids: np.ndarray, host: dict, made: bool) -> None:
-        _k_put(ids, int(made), *(host[name] for name in (*_FIXED, *_CHANGING)), *self._columns())
+        if self._views is not None:
+            store_host.put(self._views, ids, host, made, tuple(_FIXED), tuple(_CHANGING))
+        else:
+            k_put(ids, int(made), *(host[name] for name in (*_FIXED, *_CHANGING)), *self._columns())
+
+    def _replace_extra(self, kill: np.ndarray, first: int, pairs: np.ndarray) -> None:
+        if self._views is not None:
+            store_host.replace_extra(self._views, kill, first, pairs)
+        else:
+            k_replace_extra(kill, first, pairs, self.link_extra, self.link_extra_alive)
 
     def _append_extra(self, pairs: np.ndarray, kill=()) -> None:
         """Remove the extra links at store rows `kill`, append `pairs` (store ids)."""
         pairs = np.asarray(pairs, dtype=np.int32).reshape(-1, 2)
         kill = np.asarray(kill, dtype=np.int32).reshape(-1)
         if self.extra_count + len(pairs) > self.extra_capacity:
-            _k_replace_extra(kill, 0, pairs[:0], self.link_extra, self.link_extra_alive)
+            self._replace_extra(kill, 0, pairs[:0])
             kill = kill[:0]
-            self.extra_count = _k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
+            if self._views is not None:
+                self.extra_count = store_host.compact_extra(self._views, self.extra_count)
+            else:
+                self.extra_count = k_compact_extra(self.extra_count, self.link_extra, self.link_extra_alive)
             self._grow(self.count, self.extra_count + len(pairs))
-        _k_replace_extra(kill, self.extra_count, pairs, self.link_extra, self.link_extra_alive)
+        self._replace_extra(kill, self.extra_count, pairs)
         self.extra_count += len(pairs)
 
     def _changed(self, bodies) -> None:
@@ -383,32 +284,38 @@ class ParticleStore:
     # ---- reading ---------------------------------------------------------------------------------
     def body_totals(self, n_bodies: int, device: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(alive particles (B,), their mass (B,) kg) per body id below n_bodies: from the host copy the
-        store keeps while nothing changed (as `first_invalid`), else (or with `device`) one kernel, B
-        rows back."""
+        store keeps while nothing changed (as `first_invalid`), else (or with `device`) from the store
+        itself (one pass: numpy on its views, or a kernel), B rows back."""
         kept = None if device else self.kept_host()
         if kept is not None:
             rows = np.flatnonzero(kept.alive & (kept.body >= 0) & (kept.body < n_bodies))
             return (np.bincount(kept.body[rows], minlength=n_bodies).astype(np.int32),
                     np.bincount(kept.body[rows], weights=np.asarray(kept.mass[rows], np.float64), minlength=n_bodies))
-        count = np.zeros(max(1, n_bodies), dtype=np.int32)
-        mass = np.zeros(max(1, n_bodies), dtype=np.float64)
-        _k_body_totals(self.count, self.particle_alive, self.particle_body, self.particle_mass, count, mass)
+        if self._views is not None:
+            count, mass = store_host.body_totals(self._views, self.count, n_bodies)
+        else:
+            count = np.zeros(max(1, n_bodies), dtype=np.int32)
+            mass = np.zeros(max(1, n_bodies), dtype=np.float64)
+            k_body_totals(self.count, self.particle_alive, self.particle_body, self.particle_mass, count, mass)
         self.transfers.append(("body_totals", len(count)))
         return count[:n_bodies], mass[:n_bodies]
 
     def take_mass(self, ids: np.ndarray) -> np.ndarray:
         """(K,) kg: the masses of particles `ids` (K rows back)."""
-        out = np.empty(len(ids), dtype=np.float64)
-        _k_take_f64(np.asarray(ids, np.int32), self.particle_mass, out)
+        if self._views is not None:
+            out = self._views["particle_mass"][np.asarray(ids, np.int64)]
+        else:
+            out = np.empty(len(ids), dtype=np.float64)
+            k_take_f64(np.asarray(ids, np.int32), self.particle_mass, out)
         self.transfers.append(("take_mass", len(ids)))
         return out
 
     def first_invalid(self, device: bool = False) -> dict[str, int]:
         """Per check, the first alive particle that fails it (geometry.store_checks), or -1: on the host
-        copy the store keeps while nothing changed (the build's: a first frame compiles no kernel for
-        it); else by one kernel over the rows `put_body` wrote since the store was last found valid,
+        copy the store keeps while nothing changed (the build's); else on the store itself (numpy on
+        its views, or a kernel) over the rows `put_body` wrote since the store was last found valid,
         where every change since came from `put_body` (the rows no event wrote are as they were); else
-        (or with `device`) by that kernel over the whole store."""
+        (or with `device`) over the whole store."""
         kept = None if device else self.kept_host()
         if kept is not None:
             first = host_first_invalid(kept, self._host[2] if self.has_kernels else None)
@@ -416,15 +323,22 @@ class ParticleStore:
             only_puts = not device and self._valid is not None and self.version - self._valid[0] == len(self._valid[1])
             written = self._valid[1] if only_puts else []
             rows = np.unique(np.concatenate([np.zeros(0, np.int64), *written])).astype(np.int32)
-            first = np.zeros(5, dtype=np.int32)
-            k_first_invalid(self.count, rows, len(rows) if only_puts else -1, int(self.has_kernels),
-                            self.particle_alive, self.particle_centroid, self.particle_rest_verts,
-                            self.particle_volume, self.particle_mass, self.particle_kernel, first)
+            first = self._first_invalid_rows(rows if only_puts else None)
         names = ("particle_centroid", "particle_rest_verts", "particle_volume", "particle_mass", "kernel_G")
         found = {name: (int(i) if i < self.count else -1) for name, i in zip(names, first)}
         # (version, rows written since) while the store is known valid: the next check need look at those only
         self._valid = (self.version, []) if set(found.values()) == {-1} else None
         return found
+
+    def _first_invalid_rows(self, rows: np.ndarray | None) -> np.ndarray:
+        """(5,) `first_invalid`'s answer over `rows` (ascending), or over every row for None."""
+        if self._views is not None:
+            return store_host.first_invalid(self._views, self.count, rows, self.has_kernels)
+        first = np.zeros(5, dtype=np.int32)
+        k_first_invalid(self.count, np.zeros(0, np.int32) if rows is None else rows, -1 if rows is None else len(rows),
+                        int(self.has_kernels), self.particle_alive, self.particle_centroid, self.particle_rest_verts,
+                        self.particle_volume, self.particle_mass, self.particle_kernel, first)
+        return first
 
     def kept_host(self) -> ParticleSet | None:
         """`host()`'s ParticleSet where it is kept already (nothing changed since the build or the last

@@ -79,10 +79,12 @@ class HostSync:
         return self._col
 
     def warm_event_pieces(self) -> list:
-        """Launchers of the copies a fracture event makes (contact and warm-start downloads, wake-ups,
-        body-state writes), each launching one on nothing (zero counts; the body-state write on a free
-        slot, with the zeros it holds), so that the first event is as fast as the later ones: Taichi
-        loads a kernel's cached code at its first launch (10-25 ms each). sim/warm_up.py runs them."""
+        """Launchers of the copies a fracture event makes (body-state, contact and warm-start downloads,
+        wake-ups, body-state writes), each launching one on nothing (zero counts; the body-state write on
+        a free slot, with the zeros it holds), so that the first event is as fast as the later ones:
+        Taichi loads a kernel's cached code at its first launch (10-60 ms each). sim/warm_up.py runs them.
+        A run's frames download the bodies' state before any event; the API's first call that reads it
+        (`Simulation.surface_point`, a strike) would compile it (60 ms), so it is among them."""
         from core.compile import precompile
 
         fdt = numpy_float()
@@ -96,7 +98,8 @@ class HostSync:
             else:
                 precompile(transfers.k_set_body_state, self._s, 0, v3, v4, v3, v3, 0, 0)
 
-        return [lambda: transfers.k_download_contacts(self._s, 0, i1, i1, i1, i1, f3, f3, f1, f1, f1),
+        return [lambda: transfers.k_download_bodies(self._s, 0, f3, np.zeros((1, 4), fdt), f3, f3, i1, f1, i1),
+                lambda: transfers.k_download_contacts(self._s, 0, i1, i1, i1, i1, f3, f3, f1, f1, f1),
                 lambda: transfers.k_download_prev(self._s, 0, 0, i1, f1, f3, i1),
                 lambda: transfers.k_wake(self._s, i1, 0), set_state]
 

@@ -1,7 +1,9 @@
 """The particle store (geometry/particle_store.py): Taichi ndarrays that a fracture event works on in
 place. A round trip is exact; a body taken, cut by the host geometry code and put back gives, bit for
 bit, what cutting the whole-world arrays gives (the store's ids for the children included); the store
-grows without losing a row; its device checks agree with numpy.
+grows without losing a row; its device checks agree with numpy. Each test runs with the copies made by
+numpy on views of the ndarrays (the CPU backend's way, geometry/store_host.py) and by the kernels
+(geometry/store_kernels.py, CUDA's), and the two give the same bits.
 """
 
 from __future__ import annotations
@@ -29,6 +31,12 @@ def _two_blocks():
     return ps, G
 
 
+@pytest.fixture(params=[True, False], ids=["numpy", "kernels"])
+def on_host(request) -> bool:
+    """ParticleStore's on_host: its copies by numpy on views of the ndarrays, or by its kernels."""
+    return request.param
+
+
 def _same(a, b, extra_as_sets: bool = False):
     for name in ("rest_verts", "volume", "mass", "centroid", "radius", "material", "body", "links", "kind", "parent",
                  "alive"):
@@ -40,11 +48,11 @@ def _same(a, b, extra_as_sets: bool = False):
     assert np.array_equal(ea, eb)
 
 
-def test_a_round_trip_is_exact():
+def test_a_round_trip_is_exact(on_host):
     from geometry.particle_store import ParticleStore
 
     ps, G = _two_blocks()
-    store = ParticleStore(ps, G)
+    store = ParticleStore(ps, G, on_host=on_host)
     host, G2 = store.host()
     _same(ps, host)
     assert np.array_equal(G, G2) and not host.volume.flags.writeable  # an output copy, read-only
@@ -77,7 +85,7 @@ def test_a_round_trip_is_exact():
 
 
 @pytest.mark.parametrize("mode", ["basic", "subdivision"])
-def test_a_cut_on_the_taken_body_equals_the_cut_on_the_whole_world(mode, monkeypatch):
+def test_a_cut_on_the_taken_body_equals_the_cut_on_the_whole_world(mode, on_host, monkeypatch):
     """Cut body 1 with two cracks (subdivision appends children, shattering frees particles), once on
     the whole-world arrays and once through take_bodies / put_body on a store too small for the
     children (it grows on the way): the same particles, links, parents and extra links."""
@@ -88,7 +96,7 @@ def test_a_cut_on_the_taken_body_equals_the_cut_on_the_whole_world(mode, monkeyp
               Crack(point=[0.21, 0.0, 0.0], normal=[0.0, 1.0, 0.3], r_outer=0.05)]
     whole, rep = apply_cracks(ps, cracks, mode=mode, shatter=True, bodies=[1])
     monkeypatch.setattr(store_module, "HEADROOM", 1)
-    store = store_module.ParticleStore(ps, G)
+    store = store_module.ParticleStore(ps, G, on_host=on_host)
     ids, part, G_part, rows = store.take_bodies([1])
     cut, rep_part = apply_cracks(part, cracks, mode=mode, shatter=True, bodies=[1])
     n_new = len(cut) - len(part)
@@ -108,12 +116,12 @@ def test_a_cut_on_the_taken_body_equals_the_cut_on_the_whole_world(mode, monkeyp
     assert np.array_equal(G_host[len(ps):], G[whole.parent[len(ps):]])  # children: their parent's tensor
 
 
-def test_device_checks_agree_with_numpy():
+def test_device_checks_agree_with_numpy(on_host):
     from geometry.particle_store import ParticleStore
 
     ps, G = _two_blocks()
     ps.alive[5] = False
-    store = ParticleStore(ps, G)
+    store = ParticleStore(ps, G, on_host=on_host)
     alive = ps.alive
     for device in (False, True):  # the build's host copy, then the kernel over the store
         count, mass = store.body_totals(3, device=device)
@@ -129,7 +137,7 @@ def test_device_checks_agree_with_numpy():
 
 
 @pytest.mark.parametrize("bad", ["centroid", "rest_verts", "volume", "mass", "kernel"])
-def test_the_host_check_of_a_built_store_answers_as_the_kernel(bad):
+def test_the_host_check_of_a_built_store_answers_as_the_kernel(bad, on_host):
     """A store that nothing changed since its build checks the build's host copy (numpy); it names the
     same particles as the kernel over the store does."""
     from geometry.particle_store import ParticleStore
@@ -142,28 +150,27 @@ def test_the_host_check_of_a_built_store_answers_as_the_kernel(bad):
     rows[bad][40] = 0.0 if bad in ("volume", "mass") else np.nan
     if bad == "kernel":
         G[23] = -np.eye(3)  # finite, not positive definite
-    store = ParticleStore(ps, G)
+    store = ParticleStore(ps, G, on_host=on_host)
     assert store.kept_host() is not None
     assert store.first_invalid() == store.first_invalid(device=True)
     assert list(store.first_invalid().values()).count(17) == 1
     np.testing.assert_array_equal(store.take_mass(np.array([3, 0, 400])), ps.mass[[3, 0, 400]])
 
 
-def test_after_valid_check_only_the_rows_events_wrote_are_checked(monkeypatch):
+def test_after_valid_check_only_the_rows_events_wrote_are_checked(on_host, monkeypatch):
     """Once the store was found valid, the next check looks at the rows `put_body` wrote since (the
     others are as they were) and names a bad row among them as the whole-store kernel does; a change
     made any other way (the version bumped by hand) sends the check over the whole store again."""
-    from geometry import particle_store
     from geometry.particle_store import ParticleStore
 
     ps, G = _two_blocks()
-    store = ParticleStore(ps, G)
+    store = ParticleStore(ps, G, on_host=on_host)
     ids, part, G_part, rows = store.take_bodies([1])
-    store.put_body(ids, part, G_part, rows)  # the build's host copy is gone: the kernel checks
-    passes = []
-    kernel = particle_store.k_first_invalid
-    monkeypatch.setattr(particle_store, "k_first_invalid", lambda n, rows, n_rows, *rest: (
-        passes.append(n_rows), kernel(n, rows, n_rows, *rest))[1])
+    store.put_body(ids, part, G_part, rows)  # the build's host copy is gone: the store's own check runs
+    passes = []  # per check of the store's rows: how many it looked at, -1 for every row
+    check = store._first_invalid_rows
+    monkeypatch.setattr(store, "_first_invalid_rows", lambda rows: (
+        passes.append(-1 if rows is None else len(rows)), check(rows))[1])
     assert set(store.first_invalid().values()) == {-1} and passes == [-1]  # not known valid yet: every row
     assert set(store.first_invalid().values()) == {-1} and passes == [-1, 0]  # nothing written since: no row
     ids, part, G_part, rows = store.take_bodies([0])
