@@ -1,6 +1,8 @@
-"""Host <-> store copies of the rigid world (rigid/world.py): the body table, spheres, colliders and the
-warm-start contacts, each uploaded or downloaded by one kernel of rigid/transfers.py. A mixin of
-RigidWorld: it reads the world's host mirror (`_hb`, sphere and collider lists) and its store `_s`."""
+"""Host <-> store copies of the rigid world (rigid/world.py): the body table, spheres, colliders, the
+contacts and the warm-start contacts. On the CPU backend by numpy on views of the store's fields
+(rigid/host_views.py: nothing to compile), elsewhere by one kernel each of rigid/transfers.py; the
+same bits. A mixin of RigidWorld: it reads the world's host mirror (`_hb`, sphere and collider lists)
+and its store `_s`."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ import numpy as np
 
 from core.runtime import numpy_float
 from rigid import transfers
+from rigid.host_views import store_views
 from rigid.records import BodyState
 
 
@@ -24,19 +27,55 @@ class HostSync:
             self._state_cache = cached
         return cached[1]
 
+    def _views(self) -> dict | None:
+        """The store's fields as numpy views (rigid/host_views.py), or None (the kernels copy); made once
+        per store."""
+        cached = getattr(self, "_views_cache", None)
+        if cached is None or cached[0] is not self._s:
+            cached = self._views_cache = (self._s, store_views(self._s))
+        return cached[1]
+
+    def read_scalar(self, name: str):
+        """A 0-D field of the store (rigid/host_views.py SCALARS), read through its view where there is one
+        (Taichi compiles an accessor for each field read from Python)."""
+        hv = self._views()
+        return hv[name][()] if hv is not None else getattr(self._s, name)[None]
+
+    def write_scalar(self, name: str, value) -> None:
+        hv = self._views()
+        if hv is not None:
+            hv[name][...] = value
+        else:
+            getattr(self._s, name)[None] = value
+
     def _forget_state(self) -> None:
         """Called by everything that writes a body's state: the step, uploads, pose writes, wake-ups."""
         self._state_cache = None
 
     def _write_body_state(self, body: int, x, q, v, w, asleep: int, alive: int) -> None:
-        transfers.k_set_body_state(self._s, body, x, q, v, w, asleep, alive)
+        if (hv := self._views()) is not None:
+            for name, value in (("x", x), ("q", q), ("v", v), ("w", w), ("asleep", asleep), ("alive", alive),
+                                ("sleep_time", 0.0)):
+                hv["body_" + name][body] = value
+        else:
+            transfers.k_set_body_state(self._s, body, x, q, v, w, asleep, alive)
         self._forget_state()
 
     def _wake_bodies(self, ids: np.ndarray) -> None:
-        transfers.k_wake(self._s, ids, len(ids))
+        if (hv := self._views()) is not None:
+            ids = np.asarray(ids, np.int64)
+            ids = ids[(hv["body_alive"][ids] == 1) & (hv["body_static"][ids] == 0) & (hv["body_asleep"][ids] == 1)]
+            hv["body_asleep"][ids] = 0
+            hv["body_sleep_time"][ids] = 0.0
+        else:
+            transfers.k_wake(self._s, ids, len(ids))
         self._forget_state()
 
     def _download_bodies(self, n: int) -> BodyState:
+        if (hv := self._views()) is not None:
+            return BodyState(**{name: hv["body_" + name][:n].astype(np.float64) for name in ("x", "q", "v", "w")},
+                             asleep=hv["body_asleep"][:n].astype(bool), alive=hv["body_alive"][:n].astype(bool),
+                             sleep_time=hv["body_sleep_time"][:n].astype(np.float64))
         fdt = numpy_float()
         m = max(n, 1)
         x = np.zeros((m, 3), fdt)
@@ -84,8 +123,12 @@ class HostSync:
         a free slot, with the zeros it holds), so that the first event is as fast as the later ones:
         Taichi loads a kernel's cached code at its first launch (10-60 ms each). sim/warm_up.py runs them.
         A run's frames download the bodies' state before any event; the API's first call that reads it
-        (`Simulation.surface_point`, a strike) would compile it (60 ms), so it is among them."""
+        (`Simulation.surface_point`, a strike) would compile it (60 ms), so it is among them. None where
+        numpy makes the copies (the CPU backend: nothing to compile)."""
         from core.compile import precompile
+
+        if self._views() is not None:
+            return []
 
         fdt = numpy_float()
         i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
@@ -116,6 +159,18 @@ class HostSync:
             return np.ascontiguousarray(np.asarray(lst[sl], dtype=np.float64).astype(dt))
 
         sleep_time = state.sleep_time if state.sleep_time is not None else np.zeros(len(state.x))
+        if (hv := self._views()) is not None:
+            for name in ("inv_mass", "ref_com", "inv_inertia", "principal_q", "inv_principal", "restitution",
+                         "friction"):
+                hv["body_" + name][sl] = arr(getattr(hb, name))
+            hv["body_static"][sl] = arr(hb.static, np.int32)
+            for name, col in (("alive", state.alive), ("asleep", state.asleep)):
+                hv["body_" + name][sl] = col[ss].astype(np.int32)
+            for name, col in (("x", state.x), ("q", state.q), ("v", state.v), ("w", state.w),
+                              ("sleep_time", np.asarray(sleep_time))):
+                hv["body_" + name][sl] = col[ss].astype(fdt)
+            self._forget_state()
+            return
         transfers.k_upload_bodies(
             self._s,
             start,
@@ -143,6 +198,11 @@ class HostSync:
             return
         fdt = numpy_float()
         sl = slice(start, start + n)
+        if (hv := self._views()) is not None:
+            hv["bp_local"][sl] = self._sph_local[sl].astype(fdt)
+            hv["bp_radius"][sl] = self._sph_radius[sl].astype(fdt)
+            hv["bp_body"][sl] = self._sph_body[sl]
+            return
         transfers.k_upload_spheres(
             self._s,
             start,
@@ -162,6 +222,11 @@ class HostSync:
         def arr(key, dt=fdt):
             return np.ascontiguousarray(np.asarray(c[key][sl], dtype=np.float64).astype(dt))
 
+        if (hv := self._views()) is not None:
+            hv["col_kind"][sl] = arr("kind", np.int32)
+            for key in ("x", "q", "n", "half", "restitution", "friction"):
+                hv["col_" + key][sl] = arr(key)
+            return
         transfers.k_upload_colliders(
             self._s,
             start,
@@ -175,15 +240,35 @@ class HostSync:
             arr("friction"),
         )
 
+    def _download_contacts(self) -> tuple:
+        """The last step's contacts (a, b, body_a, body_b, point, normal, normal impulse, normal speed,
+        separation), each (nc, ...) in the store's dtypes."""
+        nc = self._nc
+        names = ("ct_a", "ct_b", "ct_body_a", "ct_body_b", "ct_p", "ct_n", "ct_ltot", "ct_vn0", "ct_sep")
+        if (hv := self._views()) is not None:
+            return tuple(hv[name][:nc].copy() for name in names)
+        fdt, m = numpy_float(), max(nc, 1)
+        out = [np.zeros(m, np.int32) for _ in range(4)] + [np.zeros((m, 3), fdt) for _ in range(2)]
+        out += [np.zeros(m, fdt) for _ in range(3)]
+        if nc > 0:
+            transfers.k_download_contacts(self._s, nc, *out)
+        return tuple(a[:nc] for a in out)
+
     def _download_prev(self):
         """(pc_b, pc_ln, pc_lt, pc_start, valid) of the previous step's contacts."""
         fdt = numpy_float()
         nc, ns = self._nc, self._ns
+        if (hv := self._views()) is not None:
+            valid = int(hv["pc_valid"][()])
+            if not valid:
+                return np.zeros(nc, np.int32), np.zeros(nc, fdt), np.zeros((nc, 3), fdt), np.zeros(ns + 1, np.int32), 0
+            return (hv["pc_b"][:nc].copy(), hv["pc_ln"][:nc].copy(), hv["pc_lt"][:nc].copy(),
+                    hv["bp_pc_start"][:ns + 1].copy(), valid)
         pb = np.zeros(max(nc, 1), np.int32)
         pln = np.zeros(max(nc, 1), fdt)
         plt = np.zeros((max(nc, 1), 3), fdt)
         pstart = np.zeros(ns + 1, np.int32)
-        valid = int(self._s.pc_valid[None])
+        valid = int(self.read_scalar("pc_valid"))
         if valid:
             transfers.k_download_prev(self._s, nc, ns, pb, pln, plt, pstart)
         return pb[:nc], pln[:nc], plt[:nc], pstart, valid
@@ -195,6 +280,12 @@ class HostSync:
         if nc > self._s.cap_contacts:  # only when shrinking, which never happens
             valid = 0
             nc = 0
+        if (hv := self._views()) is not None:
+            hv["pc_b"][:nc], hv["pc_ln"][:nc], hv["pc_lt"][:nc] = pb[:nc], pln[:nc], plt[:nc]
+            hv["bp_pc_start"][:ns + 1] = pstart
+            self.write_scalar("pc_valid", int(valid))
+            self._nc = nc
+            return
         transfers.k_upload_prev(
             self._s,
             nc,

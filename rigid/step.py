@@ -187,8 +187,8 @@ def warm_pieces(world) -> list:
 
     def launch(k: int) -> None:
         kernel, args = kernels()[k]
-        valid = int(world._s.pc_valid[None])
+        valid = int(world.read_scalar("pc_valid"))
         kernel(*args)
-        world._s.pc_valid[None] = valid
+        world.write_scalar("pc_valid", valid)
 
     return [piece for k in range(len(kernels())) for piece in (partial(frontend, k), partial(launch, k))]

@@ -1,6 +1,8 @@
 """Host <-> Taichi transfers of the rigid store (rigid/store.py): bodies, spheres, colliders, contacts
-and the warm-start store, uploaded or downloaded in one kernel each; waking and counting awake
-bodies."""
+and the warm-start store, uploaded or downloaded in one kernel each; waking bodies. They run where the
+store's memory is not the host's (CUDA); on the CPU rigid/host_sync.py makes the same copies with
+numpy on views of the fields (rigid/host_views.py), and tests/unit/test_rigid_host_views.py steps a
+world both ways to the same bits."""
 
 import taichi as ti
 

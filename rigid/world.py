@@ -25,7 +25,6 @@ import numpy as np
 
 from core.errors import CapacityError, ConfigError
 from core.runtime import numpy_float
-from rigid import transfers
 from rigid.free_flight import FreeFlight
 from rigid.host_sync import HostSync
 from rigid.mass import MassProperties
@@ -118,7 +117,7 @@ class RigidWorld(HostSync):
         self._sph_radius = np.zeros(0, fdt)
         self._sph_body = np.zeros(0, np.int32)
         self._col = dict(kind=[], x=[], q=[], n=[], half=[], restitution=[], friction=[])
-        self._s.pc_valid[None] = 0
+        self.write_scalar("pc_valid", 0)
         self.free_flight = FreeFlight(self)  # which frames before the first contact step the bodies alone
 
     def clear(self) -> None:
@@ -406,25 +405,11 @@ class RigidWorld(HostSync):
     def fastest_closing(self) -> float:
         """m/s: the fastest pre-solve closing speed among the last step's contacts that carried impulse (0
         if none): an impact above a threshold needs one above it, so a step without one downloads nothing."""
-        return float(self._s.max_closing[None])
+        return float(self.read_scalar("max_closing"))
 
     def contact_events(self) -> ContactEvents:
         """Contacts of the last step (see ContactEvents)."""
-        fdt = numpy_float()
-        nc = self._nc
-        m = max(nc, 1)
-        a = np.zeros(m, np.int32)
-        b = np.zeros(m, np.int32)
-        ba = np.zeros(m, np.int32)
-        bb = np.zeros(m, np.int32)
-        p = np.zeros((m, 3), fdt)
-        n = np.zeros((m, 3), fdt)
-        ln = np.zeros(m, fdt)
-        vn0 = np.zeros(m, fdt)
-        sep = np.zeros(m, fdt)
-        if nc > 0:
-            transfers.k_download_contacts(self._s, nc, a, b, ba, bb, p, n, ln, vn0, sep)
-        a, b, ba, bb = a[:nc], b[:nc], ba[:nc], bb[:nc]
+        a, b, ba, bb, p, n, ln, vn0, sep = self._download_contacts()
         rad = self._sph_radius.astype(np.float64)
         return ContactEvents(
             body_a=ba.astype(np.int64),
@@ -432,11 +417,11 @@ class RigidWorld(HostSync):
             sphere_a=a.astype(np.int64),
             sphere_b=np.where(b >= 0, b, -1).astype(np.int64),
             collider=np.where(b < 0, -1 - b, -1).astype(np.int64),
-            point=p[:nc].astype(np.float64),
-            normal=n[:nc].astype(np.float64),
-            normal_impulse=ln[:nc].astype(np.float64),
-            normal_speed=vn0[:nc].astype(np.float64),
-            separation=sep[:nc].astype(np.float64),
+            point=p.astype(np.float64),
+            normal=n.astype(np.float64),
+            normal_impulse=ln.astype(np.float64),
+            normal_speed=vn0.astype(np.float64),
+            separation=sep.astype(np.float64),
             site_radius=np.maximum(rad[a], np.where(b >= 0, rad[np.maximum(b, 0)], 0.0)),
         )
 

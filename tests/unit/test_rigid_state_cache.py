@@ -6,22 +6,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigid import transfers
 from rigid.bodies import add_box_body
 
 G = 9.81
 DT = 1.0 / 240.0
 
 
-def _downloads(monkeypatch) -> list:
+def _downloads(w, monkeypatch) -> list:
+    """The downloads of the bodies' state from the store (by its views on the CPU, else its kernel)."""
     calls = []
-    inner = transfers.k_download_bodies
+    inner = w._download_bodies
 
-    def counted(*args):
-        calls.append(args[1])
-        return inner(*args)
+    def counted(n):
+        calls.append(n)
+        return inner(n)
 
-    monkeypatch.setattr(transfers, "k_download_bodies", counted)
+    monkeypatch.setattr(w, "_download_bodies", counted)
     return calls
 
 
@@ -35,7 +35,7 @@ def _same_as_the_store(w) -> None:
 def test_readers_share_one_download_until_a_step(fresh, monkeypatch):
     w = fresh
     a = add_box_body(w, [0.1, 0.1, 0.1], 1000.0, x=(0.0, 2.0, 0.0))
-    calls = _downloads(monkeypatch)
+    calls = _downloads(w, monkeypatch)
     first = w.body_state()
     for _ in range(5):
         w.body_state()
