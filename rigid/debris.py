@@ -23,6 +23,10 @@ from core.runtime import numpy_float
 
 MIN_CAPACITY = 256  # debris slots allocated at least
 PLANE, BOX = 0, 1  # collider kinds
+# the fields the host copies (debris added, read, given velocities; the colliders), as numpy views of
+# their memory on the CPU backend (rigid/host_views.py), by the kernels below elsewhere
+VIEWED = ("debris_r", "debris_particle", "debris_x", "debris_v", "col_kind", "col_x", "col_n", "col_rot", "col_half",
+          "col_e", "col_mu")
 
 
 @ti.data_oriented
@@ -53,6 +57,22 @@ class _DebrisArrays:
                                    self.col_e, self.col_mu)
         fb.finalize()
         self.capacity, self.n_col_slots = cap, ncol
+        self._views = None  # made at the first use (`views`)
+
+    def views(self) -> dict | None:
+        """VIEWED as numpy views of the fields' memory, or None (the kernels copy)."""
+        from rigid.host_views import field_views
+
+        if self._views is None:
+            self._views = field_views(self, VIEWED, (), self._k_addresses) or {}
+        return self._views or None
+
+    @ti.kernel
+    def _k_addresses(self, out: ti.types.ndarray()):
+        """out[2k], out[2k + 1]: the addresses of rows 0 and 1 of field VIEWED[k]."""
+        for k in ti.static(range(len(VIEWED))):
+            out[2 * k] = ti.get_addr(ti.static(getattr(self, VIEWED[k])), 0)
+            out[2 * k + 1] = ti.get_addr(ti.static(getattr(self, VIEWED[k])), 1)
 
     @ti.kernel
     def _k_set_colliders(self, n: ti.i32, kind: ti.types.ndarray(), x: ti.types.ndarray(), nrm: ti.types.ndarray(),
@@ -204,7 +224,11 @@ class DebrisStore:
                 rot[k] = c.get("rot", np.eye(3))
             e[k], mu[k] = c["restitution"], c["friction"]
         fdt = numpy_float()
-        self._a._k_set_colliders(n, kind, *(a.astype(fdt) for a in (x, nrm, rot, half, e, mu)))
+        if (hv := self._a.views()) is not None:
+            for name, a in zip(VIEWED[4:], (kind, x, nrm, rot, half, e, mu)):
+                hv[name][:n] = a.astype(hv[name].dtype)
+        else:
+            self._a._k_set_colliders(n, kind, *(a.astype(fdt) for a in (x, nrm, rot, half, e, mu)))
         self.n_colliders = len(self._colliders)
 
     def release(self) -> None:
@@ -227,9 +251,18 @@ class DebrisStore:
             raise ConfigError("debris.add", "non-finite state or radius <= 0", "finite x, v; r > 0 m")
         if self.count + k > self.capacity:
             self._grow(self.count + k)
-        fdt = numpy_float()  # the kernel's arrays in the run's precision (no lossy cast inside)
-        self._a._k_append(self.count, k, x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
+        self._append(self.count, x, v, r, pid)
         self.count += k
+
+    def _append(self, start: int, x, v, r, pid) -> None:
+        """Rows start.. of the debris from host arrays (K,3) m, (K,3) m/s, (K,) m, (K,)."""
+        fdt = numpy_float()  # in the run's precision (no lossy cast inside)
+        if (hv := self._a.views()) is not None:
+            rows = slice(start, start + len(x))
+            for name, a in zip(VIEWED[:4], (r.astype(fdt), pid, x.astype(fdt), v.astype(fdt))):
+                hv[name][rows] = a
+        else:
+            self._a._k_append(start, len(x), x.astype(fdt), v.astype(fdt), r.astype(fdt), pid)
 
     def warm_pieces(self) -> list:
         """Launchers of every kernel the store launches once debris exists, and of the field copies of
@@ -237,9 +270,11 @@ class DebrisStore:
         (sim/warm_up.py runs them)."""
         fdt = numpy_float()
         i1, f1, f3 = np.zeros(1, np.int32), np.zeros(1, fdt), np.zeros((1, 3), fdt)
-        return [lambda: self._a._k_append(0, 0, f3, f3, f1, i1),
-                lambda: self._a._k_step(0, self.n_colliders, 0.0, self.gravity),
-                lambda: self._a._k_set_v(0, i1, f3), lambda: self._a._k_max_speed(0), self.state]
+        physics = [lambda: self._a._k_step(0, self.n_colliders, 0.0, self.gravity), lambda: self._a._k_max_speed(0)]
+        if self._a.views() is not None:  # the copies are numpy's: nothing of theirs to compile
+            return physics
+        return [lambda: self._a._k_append(0, 0, f3, f3, f1, i1), *physics,
+                lambda: self._a._k_set_v(0, i1, f3), self.state]
 
     def set_velocities(self, index, v) -> None:
         """Overwrite the velocities (K,3) m/s of the debris entries `index` (K,) (a striker sweeping
@@ -249,7 +284,9 @@ class DebrisStore:
         if len(index) != len(v) or (len(index) and (index.min() < 0 or index.max() >= self.count)):
             raise ConfigError("debris.set_velocities", (len(index), len(v), self.count),
                               "matching lengths and indices below the debris count")
-        if len(index):
+        if len(index) and (hv := self._a.views()) is not None:
+            hv["debris_v"][index] = v.astype(numpy_float())
+        elif len(index):
             self._a._k_set_v(len(index), index, v.astype(numpy_float()))
 
     def _grow(self, needed: int) -> None:
@@ -265,8 +302,7 @@ class DebrisStore:
         n = self.count
         self.count = 0
         if n:
-            fdt = numpy_float()
-            self._a._k_append(0, n, keep["x"].astype(fdt), keep["v"].astype(fdt), keep["r"].astype(fdt), pid)
+            self._append(0, keep["x"], keep["v"], keep["r"], pid)
         self.count = n
 
     def step(self, dt: float) -> None:
@@ -282,6 +318,10 @@ class DebrisStore:
         """Numpy copies of the live debris from entry `first` on (only those rows cross to the host: a
         fracture event reads the entries it made): x (K,3) m, v (K,3) m/s, r (K,) m, particle (K,)."""
         k = max(0, self.count - int(first))
+        if (hv := self._a.views()) is not None:
+            rows = slice(int(first), int(first) + k)
+            return dict(x=hv["debris_x"][rows].astype(np.float64), v=hv["debris_v"][rows].astype(np.float64),
+                        r=hv["debris_r"][rows].astype(np.float64), particle=hv["debris_particle"][rows].copy())
         fdt = numpy_float()
         out = dict(x=np.zeros((k, 3), fdt), v=np.zeros((k, 3), fdt), r=np.zeros(k, fdt), particle=np.zeros(k, np.int32))
         self._a._k_read(int(first), k, out["x"], out["v"], out["r"], out["particle"])

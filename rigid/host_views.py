@@ -43,18 +43,26 @@ def k_addresses(s: ti.template(), out: ti.types.ndarray()):
 def store_views(s) -> dict[str, np.ndarray] | None:
     """name -> numpy view of each field of ROWS (the store's rows, then the element's shape) and of
     SCALARS (shape ()), or None where the fields' memory is not the host's."""
+    return field_views(s, ROWS, SCALARS, lambda addr: k_addresses(s, addr))
+
+
+def field_views(owner, rows: tuple, scalars: tuple, addresses) -> dict[str, np.ndarray] | None:
+    """name -> numpy view of each field `owner.<name>`: those of `rows` placed in dense nodes (rows,
+    then the element's shape), those of `scalars` 0-D; None off the CPU backend. `addresses(addr)`
+    fills addr (uint64) with the addresses of rows 0 and 1 of each of `rows`, then those of `scalars`
+    (a kernel of ti.get_addr, as `k_addresses`)."""
     from core.runtime import started_on_cpu
 
     if not started_on_cpu():
         return None
-    addr = np.zeros(2 * len(ROWS) + len(SCALARS), np.uint64)
-    k_addresses(s, addr)
+    addr = np.zeros(2 * len(rows) + len(scalars), np.uint64)
+    addresses(addr)
     views = {}
-    for k, name in enumerate(ROWS):
+    for k, name in enumerate(rows):
         first, second = int(addr[2 * k]), int(addr[2 * k + 1])
-        views[name] = _view(getattr(s, name), first, second - first)
-    for k, name in enumerate(SCALARS):
-        views[name] = _view(getattr(s, name), int(addr[2 * len(ROWS) + k]), 0)
+        views[name] = _view(getattr(owner, name), first, second - first)
+    for k, name in enumerate(scalars):
+        views[name] = _view(getattr(owner, name), int(addr[2 * len(rows) + k]), 0)
     return views
 
 
@@ -78,4 +86,4 @@ def _view(field, first: int, stride: int) -> np.ndarray:
     return np.ndarray((rows, *element), dtype=dtype, buffer=buf, strides=(stride, *inner))
 
 
-__all__ = ["ROWS", "SCALARS", "k_addresses", "store_views"]
+__all__ = ["ROWS", "SCALARS", "field_views", "k_addresses", "store_views"]

@@ -100,3 +100,38 @@ def test_growing_the_store_keeps_every_particle(store_factory):
     st = s.state()
     assert s.capacity >= n and s.count == n
     assert np.array_equal(st["particle"], np.arange(n)) and np.allclose(st["x"], x)
+
+
+def box(e: float = 0.3, mu: float = 0.4) -> dict:
+    rot = np.array([[math.cos(0.3), -math.sin(0.3), 0.0], [math.sin(0.3), math.cos(0.3), 0.0], [0.0, 0.0, 1.0]])
+    return dict(type="box", x=[0.0, -0.05, 0.0], half=[0.5, 0.05, 0.5], rot=rot, restitution=e, friction=mu)
+
+
+def test_the_host_copies_by_views_give_the_kernels_bits(store_factory, monkeypatch):
+    """On the CPU the store's copies (added debris, its state, velocities set, the colliders) are numpy on
+    views of its fields (rigid/host_views.py); through the kernels (CUDA's way) every step's state is the
+    same, bit for bit, across a growth of the store."""
+    import rigid.debris
+
+    def run() -> list:
+        s = store_factory([plane(e=0.4, mu=0.3), box()], capacity=1)
+        rng = np.random.default_rng(7)
+        states = []
+        for k in range(3):  # the third add outgrows MIN_CAPACITY: the store is copied into a bigger one
+            n = 10 if k < 2 else MIN_CAPACITY
+            s.add(rng.uniform(-0.3, 0.3, (n, 3)) + [0.0, 0.5, 0.0], rng.normal(0.0, 1.0, (n, 3)),
+                  rng.uniform(0.005, 0.02, n), np.arange(s.count, s.count + n))
+            for _ in range(40):
+                s.step(DT)
+            s.set_velocities(np.arange(0, s.count, 3), np.tile([0.5, 1.0, 0.0], (len(range(0, s.count, 3)), 1)))
+            states.append(s.state())
+        s.release()
+        return states
+
+    by_views = run()
+    monkeypatch.setattr(rigid.debris._DebrisArrays, "views", lambda self: None)
+    by_kernels = run()
+    assert by_views[-1]["x"].shape[0] == 20 + MIN_CAPACITY
+    for a, b in zip(by_views, by_kernels):
+        for key in ("x", "v", "r", "particle"):
+            assert a[key].dtype == b[key].dtype and np.array_equal(a[key], b[key]), key
