@@ -6,8 +6,8 @@ On the CPU a Taichi ndarray lives in host memory, and its address is known
 array over that memory (no copy; each view keeps its ndarray alive). CPU kernels run to their end
 before the launch returns, so a view reads what the last kernel wrote and a kernel reads what a view
 wrote. The store's kernels (geometry/store_kernels.py) only copy rows, yet each costs its frontend
-and an LLVM JIT in every process: 0.6 s of the pot's 3.7 s of compiling here (session 45), a tenth
-of which a scene struck at once pays before its first frame. The functions below make the same copies
+and an LLVM JIT in every process: 0.9 s of the pot's 3.7 s of compiling here (session 45), all of it
+before the first frame of a scene struck at once. The functions below make the same copies
 with numpy, to the bit (the kernels' arithmetic is copying, id remapping and, for the per-body mass,
 a sum in row order, which `np.bincount` keeps): the kernels stay for CUDA, and the tests run both.
 """

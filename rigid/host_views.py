@@ -1,8 +1,9 @@
-"""Numpy views of a rigid store's fields on the CPU backend (rigid/host_sync.py; issue 16: start-up).
+"""Numpy views of Taichi fields on the CPU backend: the rigid store's (rigid/host_sync.py) and the
+debris' (rigid/debris.py, `field_views`); issue 16: start-up.
 
 The host's copies to and from the rigid store (bodies, spheres, colliders, contacts, the warm-start
 contacts: rigid/transfers.py) were nine kernels that only move values, yet each costs its frontend
-and an LLVM JIT in every process (0.33 s of the pot's 2.6 s of compiling here, session 45), and
+and an LLVM JIT in every process (0.8 s of the pot's 2.8 s of compiling here, session 45), and
 Taichi's own accessor for each field read or written from Python (`field[None]`) is compiled too.
 On the CPU a field's memory is the host's: every field of rigid/store.py is placed in a dense node of
 its own (or, the scalars, together in the root), so its rows lie at a fixed stride from its first,
@@ -77,7 +78,7 @@ def _view(field, first: int, stride: int) -> np.ndarray:
     per_row = int(np.prod(element)) * dtype.itemsize
     rows = field.shape[0] if field.shape else 0
     if rows and stride < per_row:
-        raise RuntimeError(f"a rigid store field's rows lie {stride} bytes apart but hold {per_row} bytes")
+        raise RuntimeError(f"a field's rows lie {stride} bytes apart but hold {per_row} bytes")
     buf = (ctypes.c_byte * ((rows - 1) * stride + per_row if rows else dtype.itemsize)).from_address(first)
     buf.field = field  # the view keeps its field (and so its memory) alive
     if not rows:
