@@ -178,7 +178,6 @@ class ParticleStore:
             columns = {name: _kernel_dtype(host) for name, (_, _, host) in {**_FIXED, **_CHANGING}.items()
                        if name not in ("particle_parent", "particle_links")}
             cols, rows, pairs = store_host.take(self._views, ids, self.extra_count, columns)
-            cols = {name: cols[name] for name in (*_FIXED, *_CHANGING)}  # the kernels' column order
             return _particle_set(cols, pairs), cols["particle_kernel"], rows
         cols, ne = self._gather(ids)
         rows = np.empty(ne, dtype=np.int32)

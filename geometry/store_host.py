@@ -3,22 +3,22 @@ the event's time): numpy on views of the store's own ndarray memory instead of i
 
 On the CPU a Taichi ndarray lives in host memory, and its address is known
 (`Program.get_ndarray_data_ptr_as_int`): `host_views` wraps each of the store's ndarrays in a numpy
-array over that memory (no copy; each view keeps its ndarray alive). CPU kernels run to their end
-before the launch returns, so a view reads what the last kernel wrote and a kernel reads what a view
-wrote. The store's kernels (geometry/store_kernels.py) only copy rows, yet each costs its frontend
-and an LLVM JIT in every process: 0.9 s of the pot's 3.7 s of compiling here (session 45), all of it
-before the first frame of a scene struck at once. The functions below make the same copies
-with numpy, to the bit (the kernels' arithmetic is copying, id remapping and, for the per-body mass,
-a sum in row order, which `np.bincount` keeps): the kernels stay for CUDA, and the tests run both.
+array over that memory (core/host_memory.py: no copy, each view keeps its ndarray alive, and views
+and kernels see each other's writes). The store's kernels (geometry/store_kernels.py) only copy rows,
+yet each costs its frontend and an LLVM JIT in every process: 0.9 s of the pot's 3.7 s of compiling
+here (session 45), all of it before the first frame of a scene struck at once. The functions below
+make the same copies with numpy, to the bit (the kernels' arithmetic is copying, id remapping and,
+for the per-body mass, a sum in row order, which `np.bincount` keeps): the kernels stay for CUDA, and
+the tests run both.
 """
 
 from __future__ import annotations
 
-import ctypes
 from types import SimpleNamespace
 
 import numpy as np
 
+from core.host_memory import array_at, host_memory
 from geometry.store_checks import host_first_invalid
 
 
@@ -28,18 +28,11 @@ def host_views(arrays: dict) -> dict[str, np.ndarray] | None:
     from taichi.lang import impl
     from taichi.lang.util import to_numpy_type
 
-    from core.runtime import started_on_cpu
-
-    if not started_on_cpu():
+    if not host_memory():
         return None
     prog = impl.get_runtime().prog
-    views = {}
-    for name, nd in arrays.items():
-        dtype, n = np.dtype(to_numpy_type(nd.dtype)), int(np.prod(nd.shape))
-        buf = (ctypes.c_byte * max(n * dtype.itemsize, 1)).from_address(prog.get_ndarray_data_ptr_as_int(nd.arr))
-        buf.ndarray = nd  # the memory stays allocated while a view of it lives
-        views[name] = np.frombuffer(buf, dtype=dtype, count=n).reshape(nd.shape)
-    return views
+    return {name: array_at(prog.get_ndarray_data_ptr_as_int(nd.arr), to_numpy_type(nd.dtype), tuple(nd.shape),
+                           owner=nd) for name, nd in arrays.items()}
 
 
 def _local(slot: np.ndarray, ids: np.ndarray) -> np.ndarray:

@@ -9,15 +9,15 @@ On the CPU a field's memory is the host's: every field of rigid/store.py is plac
 its own (or, the scalars, together in the root), so its rows lie at a fixed stride from its first,
 components side by side. One kernel reads those addresses (`ti.get_addr` of rows 0 and 1);
 `store_views` wraps each field in a numpy array over that memory, which reads and writes it with no
-copy (CPU kernels finish before their launch returns). The copies are then numpy assignments with the
+copy (core/host_memory.py). The copies are then numpy assignments with the
 kernels' conversions (to the store's float, rounding to nearest), so the same bits. Elsewhere (CUDA)
 the kernels run. No `from __future__ import annotations` here: Taichi reads the kernel's annotations.
 """
 
-import ctypes
-
 import numpy as np
 import taichi as ti
+
+from core.host_memory import array_at, host_memory
 
 # the fields the host copies read or write (rigid/transfers.py), each viewed through its rows 0 and 1
 ROWS = ("body_inv_mass", "body_ref_com", "body_inv_inertia", "body_principal_q", "body_inv_principal",
@@ -52,9 +52,7 @@ def field_views(owner, rows: tuple, scalars: tuple, addresses) -> dict[str, np.n
     then the element's shape), those of `scalars` 0-D; None off the CPU backend. `addresses(addr)`
     fills addr (uint64) with the addresses of rows 0 and 1 of each of `rows`, then those of `scalars`
     (a kernel of ti.get_addr, as `k_addresses`)."""
-    from core.runtime import started_on_cpu
-
-    if not started_on_cpu():
+    if not host_memory():
         return None
     addr = np.zeros(2 * len(rows) + len(scalars), np.uint64)
     addresses(addr)
@@ -76,15 +74,12 @@ def _view(field, first: int, stride: int) -> np.ndarray:
     dtype = np.dtype(to_numpy_type(field.dtype))
     element = () if not isinstance(field, MatrixField) else (field.n,) if field.ndim == 1 else (field.n, field.m)
     per_row = int(np.prod(element)) * dtype.itemsize
-    rows = field.shape[0] if field.shape else 0
-    if rows and stride < per_row:
+    if not field.shape:
+        return array_at(first, dtype, (), owner=field)
+    if stride < per_row:
         raise RuntimeError(f"a field's rows lie {stride} bytes apart but hold {per_row} bytes")
-    buf = (ctypes.c_byte * ((rows - 1) * stride + per_row if rows else dtype.itemsize)).from_address(first)
-    buf.field = field  # the view keeps its field (and so its memory) alive
-    if not rows:
-        return np.ndarray((), dtype=dtype, buffer=buf)
     inner = tuple(int(np.prod(element[i + 1:])) * dtype.itemsize for i in range(len(element)))
-    return np.ndarray((rows, *element), dtype=dtype, buffer=buf, strides=(stride, *inner))
+    return array_at(first, dtype, (field.shape[0], *element), (stride, *inner), owner=field)
 
 
 __all__ = ["ROWS", "SCALARS", "field_views", "k_addresses", "store_views"]
