@@ -209,6 +209,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     print(f"tet quality ({r.get('mesher', 'tet mesh file')}; bounds: dihedral >= "
           f"{QUALITY_BOUNDS['min_dihedral_deg']:g} deg, radius ratio >= {QUALITY_BOUNDS['worst_radius_ratio']:g}, "
           f"|volume error| <= {QUALITY_BOUNDS['volume_error']:g})")
+    for failure in r.get("mesher_failures", []):
+        print(f"  not meshed at        {failure}")
+    if r.get("mesher_failures"):
+        passes = r["mesher_optimisation_passes"] or "default"
+        print(f"  meshed at            {r['mesher_size_m']:.4g} m, {passes} optimisation passes "
+              f"(resolution {r['resolution_m']:.4g} m)")
     print(f"  tets / vertices      {r['tets']:>10,} / {r['vertices']:,}")
     print(f"  volume               {r['volume_m3']:.6g} m^3   mass {r['mass_kg']:.6g} kg")
     print(f"  tet volume min/max   {r['min_tet_volume_m3']:.3g} / {r['max_tet_volume_m3']:.3g} m^3")

@@ -15,7 +15,11 @@ Why Netgen and not fTetWild, TetGen or gmsh: docs/decisions.md, "Tet mesher".
 from __future__ import annotations
 
 import os
+import signal
+import subprocess
+import sys
 import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -28,6 +32,7 @@ GRADING = 0.3  # Netgen's mesh-size grading (0 = uniform, 1 = free growth away f
 # 107 tets, a worst radius ratio of 0.047 and 9.4 % of its volume missing at 2, and 284 tets, 0.43
 # and 4.4 % at 3; a 4 mm wire at 12 mm passes at 2 with 3.3k tets (11k at 3).
 CURVATURE_SAFETY = (2.0, 3.0, 4.0)
+WORKER = Path(__file__).with_name("netgen_worker.py")  # Netgen on a surface, in a process of its own
 
 
 def _quiet(meshing) -> None:
@@ -103,29 +108,45 @@ class SolidMesher:
         return cached_tets(key, generate)
 
 
-def mesh_surface(vertices: np.ndarray, faces: np.ndarray, size: float, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Tets inside a closed, outward-oriented triangle surface (m) at target edge length `size` (m)."""
-    import netgen.meshing as meshing
+def mesh_surface(vertices: np.ndarray, faces: np.ndarray, size: float, name: str,
+                 optimise: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Tets inside a closed, outward-oriented triangle surface (m) at target edge length `size` (m), by
+    Netgen in a process of its own (geometry/netgen_worker.py: some of Netgen's failures on valid
+    surfaces abort the process that runs it); `optimise`: Netgen's volume optimisation passes
+    (`optsteps3d`; None: its default)."""
     import trimesh
-    from netgen.stl import STLGeometry
 
     vertices = np.ascontiguousarray(vertices, np.float64)
     faces = np.ascontiguousarray(faces, np.int64)
 
     def generate():
-        _quiet(meshing)
         surface = trimesh.Trimesh(vertices, faces, process=False)
         with tempfile.TemporaryDirectory(prefix="anisofrac-mesher-") as tmp:
-            path = os.path.join(tmp, "surface.stl")
+            path, out = os.path.join(tmp, "surface.stl"), os.path.join(tmp, "tets.npz")
             surface.export(path)  # Netgen's surface front end reads STL (float32 is ample at mm scale)
-            try:
-                ng_mesh = STLGeometry(path).GenerateMesh(maxh=size, grading=GRADING)
-            except Exception as exc:
-                raise _failed(name, exc) from None
-        return _arrays(ng_mesh, name)
+            extra = [] if optimise is None else [str(int(optimise))]
+            done = subprocess.run([sys.executable, str(WORKER), path, out, repr(float(size)), repr(GRADING), *extra],
+                                  capture_output=True, text=True)
+            if done.returncode != 0:
+                raise _failed(name, RuntimeError(_worker_failure(done.returncode, done.stderr)))
+            with np.load(out) as got:
+                verts, tets = got["verts"], got["tets"]
+        if len(tets) == 0:
+            raise MeshError(name, "the mesher produced no tets", f"Netgen could not fill the surface at {size:.3g} m: "
+                            "try another resolution")
+        return verts, tets
 
-    key = cache_key("stl-surface", vertices.tobytes() + faces.tobytes(), maxh=float(size), grading=GRADING)
+    options = {} if optimise is None else {"optsteps3d": int(optimise)}  # the default's key as before
+    key = cache_key("stl-surface", vertices.tobytes() + faces.tobytes(), maxh=float(size), grading=GRADING, **options)
     return cached_tets(key, generate)
+
+
+def _worker_failure(code: int, stderr: str) -> str:
+    """What a Netgen worker that exited with `code` said: its last line, or the signal that ended it."""
+    lines = [line for line in stderr.strip().splitlines() if line.strip()]
+    if code < 0:
+        return f"it crashed ({signal.Signals(-code).name})"
+    return lines[-1] if lines else f"exit status {code}"
 
 
 __all__ = ["GRADING", "SolidMesher", "mesh_surface"]

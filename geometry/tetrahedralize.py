@@ -29,6 +29,12 @@ from geometry.tetmesh import TetMesh, quality_report, signed_volumes
 MAX_TETS = 2_000_000  # refuse resolutions whose tet estimate exceeds this (memory, build time)
 TOO_THIN = 0.2  # refuse a part thinner than this x the resolution: its tets could only be flat
 TETS_PER_CUBE = 6.0  # tets per h^3 of solid volume that Netgen makes (measured: 4.9 to 6.5)
+# A surface mesh's tries in turn (`_mesh_surface`): the fraction of the target tet size, and Netgen's
+# volume optimisation passes (`optsteps3d`; None: Netgen's default, 3). Measured on shapes from
+# `trimesh.creation`: a torus (60/18 mm) at 12 mm had a worst dihedral angle of 4.9 degrees, 5.2 with 10
+# passes; a rod (8 mm radius) at 6 mm 3.8, 13.1 with 10 passes (finer sizes alone did not help:
+# 2.4-5.3); a cone's 96 triangles got no tets at 12 mm, and tets at 10.8 mm.
+SURFACE_TRIES = ((1.0, None), (1.0, 10), (0.9, 10), (0.8, 10))
 QUALITY_BOUNDS = {  # what a mesh must reach to be simulated (checked by `check_quality`)
     "min_dihedral_deg": 5.0,  # smallest dihedral angle, degrees
     "worst_radius_ratio": 0.05,  # 3 r_in / r_circ, 1 = regular tet, 0 = flat
@@ -143,9 +149,43 @@ def _mesh(shape, h: float, name: str, seed: int, layer_axis, layer_spacing):
         return _finish(shape, *single, name, None, dict(mesher="single tet"), h)
     if has_occ_solid(shape):
         return _mesh_exact_solid(shape, h, name)
+    return _mesh_surface(shape, h, name)
+
+
+def _mesh_surface(shape, h: float, name: str):
+    """Netgen on a surface at h, then with more optimisation passes and at finer sizes (SURFACE_TRIES)
+    where it fails (no tets, a crash) or its mesh misses QUALITY_BOUNDS: Netgen's STL front end fails on
+    some valid surfaces at one size and not at a nearby one (geometry/netgen_worker.py). The accepted try
+    is kept in the build cache with its tets, so a later build neither repeats the failed tries nor
+    imports Netgen; the report names the try used and why the ones before it failed."""
     surface = shape.reference_mesh()
-    verts, tets = mesh_surface(surface.vertices, surface.faces, h, name)
-    return _finish(shape, verts, tets, name, float(surface.volume), dict(mesher="netgen (surface mesh)"), h)
+    volume = float(surface.volume)
+
+    def accepted() -> dict:
+        failures = []
+        for k, (step, passes) in enumerate(SURFACE_TRIES):
+            size = h * step
+            try:
+                verts, tets = mesh_surface(surface.vertices, surface.faces, size, name, passes)
+                check_quality(_finish(shape, verts, tets.copy(), name, volume, {}, h)[1], name)
+            except MeshError as exc:
+                failures.append(f"{size:.4g} m, {passes or 'default'} optimisation passes: {exc.problem}")
+                continue
+            return dict(verts=verts, tets=tets, attempt=np.int64(k), failures=np.array(failures, dtype=str))
+        raise MeshError(name, f"the tet mesher (Netgen) failed at every size tried ({'; '.join(failures)})",
+                        "check the surface with `main.py check FILE`, try --repair, or another resolution")
+
+    def valid(hit: dict) -> bool:
+        return tets_valid(hit) and 0 <= int(hit["attempt"]) < len(SURFACE_TRIES)
+
+    key = digest("surface-accepted", mesher_version(), surface.vertices.tobytes() + surface.faces.tobytes(), maxh=h,
+                 grading=GRADING, tries=SURFACE_TRIES, bounds=sorted(QUALITY_BOUNDS.items()))
+    got = cached_arrays("tets", key, ("verts", "tets", "attempt", "failures"), accepted, valid)
+    step, passes = SURFACE_TRIES[int(got["attempt"])]
+    extras = dict(mesher="netgen (surface mesh)", mesher_size_m=h * step, mesher_optimisation_passes=passes)
+    if len(got["failures"]):
+        extras["mesher_failures"] = [str(f) for f in got["failures"]]
+    return _finish(shape, got["verts"].astype(np.float64), got["tets"].astype(np.int64), name, volume, extras, h)
 
 
 def tetrahedralize(
