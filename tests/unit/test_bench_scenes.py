@@ -56,6 +56,28 @@ def test_summary_figures_are_the_runs_own():
     assert bs.counts_table([r]).splitlines()[2] == "| pot | 7 (4 / 1 / 2) | 14 | 0.50x | yes |"
 
 
+def test_targets_table_names_the_scenes_that_miss():
+    quick = [900.0] + [50.0] * 9 + [100.0] * 10  # starts in 1.9 s, nothing over 100 ms
+    slow = [2500.0] + [150.0] * 19  # starts in 3.5 s, 6.7 frames/s, 150 ms frames
+    ev = [dict(stress_analysis_ms=1.0, particle_subdivision_ms=2.0, crack_generation_ms=3.0, whole_event_ms=12.0),
+          dict(stress_analysis_ms=1.0, particle_subdivision_ms=2.0, crack_generation_ms=3.0, whole_event_ms=20.0)]
+    pot = bs.summarise("pot", stats(quick, ev), stats([10.0] * 20, []))  # events 16.0 ms mean: not under 16
+    pots = bs.summarise("pots", stats(slow, []), stats([1000.0] * 20, []))  # 1.0 frames/s not drawn, 1.3 in the paper
+    pet = bs.summarise("pet", stats(quick, []), stats([10.0] * 20, []))
+    lines = bs.targets_table([pot, pots, pet]).splitlines()
+    assert lines[2] == ("| every paper scene at or above its Table 2 frame rate, not drawn (paper) "
+                        "| pot 100.0 (10.2), pots 1.0 (1.3), pet 100.0 (1.2) | not for pots |")
+    assert lines[3] == ("| the first frame under 3 s with warm caches (s) | pot 1.90, pots 3.50, pet 1.90 "
+                        "| not for pots |")
+    assert lines[4] == ("| no frame over 100 ms outside fracture events (ms) | pot 100, pots 150, pet 100 "
+                        "| not for pots |")
+    assert lines[5] == ("| a Pot fracture event under 16 ms, the first included (ms: mean, first) | pot 16.0, 12 "
+                        "| not for pot |")
+    assert lines[6] == "| Pots at 10 frames/s or more, drawn, frames 1-61 | pots 6.7 | not for pots |"
+    assert lines[7] == "| the Pet built in under 5 s and 500 MB (s, MB) | pet 0.50, 321 | yes |"
+    assert len(bs.targets_table([pet]).splitlines()) == 6  # the pot's and Pots' own targets need their runs
+
+
 def test_readme_table_is_replaced_between_its_markers_only(tmp_path):
     readme = tmp_path / "README.md"
     readme.write_text(f"before\n{bs.README_BEGIN}\nold table\n{bs.README_END}\nafter\n")
