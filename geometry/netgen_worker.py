@@ -10,8 +10,8 @@ only: the caller reads its exit status and says what happened, or tries another 
 
 writes OUT.npz with `verts` (V, 3) m and `tets` (T, 4), Netgen's element nodes counted from 0, and
 exits 0 (OPTSTEPS3D: Netgen's volume optimisation passes, its own default where not given); on a
-Netgen exception it prints the message on its last line of stderr and exits 1. It
-imports nothing of the project, so it starts in about 0.35 s (numpy and Netgen).
+Netgen exception it prints the message on its last line of stderr and exits 1. It imports nothing of
+the project, so it starts in about 0.35 s (numpy and Netgen).
 """
 
 import sys

@@ -172,8 +172,9 @@ def _mesh_surface(shape, h: float, name: str):
                 failures.append(f"{size:.4g} m, {passes or 'default'} optimisation passes: {exc.problem}")
                 continue
             return dict(verts=verts, tets=tets, attempt=np.int64(k), failures=np.array(failures, dtype=str))
-        raise MeshError(name, f"the tet mesher (Netgen) failed at every size tried ({'; '.join(failures)})",
-                        "check the surface with `main.py check FILE`, try --repair, or another resolution")
+        raise MeshError(name, f"the tet mesher (Netgen) gave no mesh within the bounds at any try "
+                        f"({'; '.join(failures)})", "use a finer resolution, or check the surface with "
+                        "`main.py check FILE` and try --repair")
 
     def valid(hit: dict) -> bool:
         return tets_valid(hit) and 0 <= int(hit["attempt"]) < len(SURFACE_TRIES)

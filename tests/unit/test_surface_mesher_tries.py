@@ -84,7 +84,8 @@ def test_every_try_failing_names_each_one(tmp_path, monkeypatch):
     with pytest.raises(MeshError) as err:
         build_object(str(path), resolution=0.015, units="m")
     text = str(err.value)
-    assert text.startswith(f"{path.name}: the tet mesher (Netgen) failed at every size tried (0.015 m, default")
+    assert text.startswith(f"{path.name}: the tet mesher (Netgen) gave no mesh within the bounds at any try (0.015 m, "
+                           "default")
     assert text.count("the mesher produced no tets") == len(tz.SURFACE_TRIES) and "0.012 m, 10 optimisation" in text
 
 
