@@ -150,6 +150,10 @@ class World:
                 mesh_file = resolve_mesh_path(o.mesh, self.cfg.source)
                 geo = build_object(mesh_file, resolution=o.resolution, density=density, units=o.units,
                                    repair=o.repair, seed=self.seed, group_size=o.group_size, boundary=False)
+                if geo.report.get("mesher_failures"):  # Netgen needed another try (geometry/tetrahedralize.py)
+                    passes = geo.report["mesher_optimisation_passes"] or "default"
+                    print(f"note: objects[{i}].mesh {o.mesh}: meshed at {geo.report['mesher_size_m']:.4g} m with "
+                          f"{passes} optimisation passes ({'; '.join(geo.report['mesher_failures'])})", file=sys.stderr)
             else:
                 params = dict(o.shape)
                 kind = params.pop("type", None)

@@ -99,3 +99,27 @@ def test_a_torus_meshes_within_the_bounds_at_8_mm(tmp_path):
     assert rep["worst_radius_ratio"] >= QUALITY_BOUNDS["worst_radius_ratio"]
     assert abs(rep["volume_error"]) <= QUALITY_BOUNDS["volume_error"]
     assert rep["mesher_size_m"] <= 0.008
+
+
+def test_a_run_says_when_its_mesh_needed_another_try(tmp_path, monkeypatch, capsys, taichi_runtime):
+    from scenes.loader import load_scene
+    from sim.world import World
+
+    path = tmp_path / "box.stl"
+    box_surface(0.035)[2].export(path)  # a box no other test meshes: its tries are not in the cache yet
+    real = tz.mesh_surface
+
+    def first_fails(vertices, faces, size, name, optimise=None):
+        if optimise is None:
+            raise MeshError(name, "the mesher produced no tets")
+        return real(vertices, faces, size, name, optimise)
+
+    monkeypatch.setattr(tz, "mesh_surface", first_fails)
+    world = World(load_scene("drop", [f"objects.0.mesh={path}", "objects.0.units=m", "objects.0.resolution=0.015"]))
+    try:
+        err = capsys.readouterr().err
+        assert f"note: objects[0].mesh {path}: meshed at 0.015 m with 10 optimisation passes (0.015 m, default " \
+               "optimisation passes: the mesher produced no tets)" in err
+        assert world.bodies  # and the run goes on with it
+    finally:
+        world.release()
