@@ -47,7 +47,7 @@ def _arrays(ng_mesh, name: str) -> tuple[np.ndarray, np.ndarray]:
     return verts, tets
 
 
-def _failed(name: str, exc: Exception) -> MeshError:
+def _failed(name: str, exc: Exception | str) -> MeshError:
     return MeshError(
         name,
         f"the tet mesher (Netgen) failed: {str(exc).strip() or type(exc).__name__}",
@@ -128,7 +128,7 @@ def mesh_surface(vertices: np.ndarray, faces: np.ndarray, size: float, name: str
             done = subprocess.run([sys.executable, str(WORKER), path, out, repr(float(size)), repr(GRADING), *extra],
                                   capture_output=True, text=True)
             if done.returncode != 0:
-                raise _failed(name, RuntimeError(_worker_failure(done.returncode, done.stderr)))
+                raise _failed(name, _worker_failure(done.returncode, done.stderr))
             with np.load(out) as got:
                 verts, tets = got["verts"], got["tets"]
         if len(tets) == 0:
